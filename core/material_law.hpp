@@ -1,0 +1,59 @@
+#pragma once
+// The orthotropic hyperelastic law of Clyde, Teran & Tamstorf 2017 (paper Eq. 2, §3.1–3.2;
+// docs/model.md §2–4; derivation in docs/derivations.md §1).
+//
+//   ψ(Ẽ; k) = a11/2 η1(Ẽ11²) + a12 Ẽ11Ẽ22 + a22/2 η3(Ẽ22²) + G12 η4(Ẽ12²)     [Pa = J/m³]
+//
+// with η2(x) = x (paper §5.2). The orthotropic strain is passed as the 3-vector
+// e = (Ẽ11, Ẽ22, Ẽ12): warp stretch, weft stretch, and the *tensor* shear component
+// Ẽ12 = d1·E·d2 (not the engineering shear 2Ẽ12).
+//
+// Structure used throughout: ψ = F1(e1) + F3(e2) + F4(e3) + a12·e1·e2 is a sum of univariate
+// terms plus a bilinear term. The extrapolation of §3.2 (second-order Taylor expansion about
+// the nearest point of the validity box) therefore acts on each univariate term separately:
+// outside [min_i, max_i], F_i is replaced by its quadratic Taylor polynomial at the violated
+// bound, and the bilinear term is its own Taylor polynomial. Value, gradient and Hessian are
+// continuous across the box (C²), which Newton and the sensitivities need.
+#include <Eigen/Core>
+
+#include "core/parameters.hpp"
+
+namespace twill {
+
+using Vector3 = Eigen::Vector3d;
+using Matrix3 = Eigen::Matrix3d;
+/// ∂²ψ/∂e∂k: 3 rows (e1, e2, e3) × flat-parameter columns.
+using StrainParameterMatrix = Eigen::Matrix<double, 3, Eigen::Dynamic>;
+
+/// Value and derivatives of one curve η at x ≥ −1 (paper §3.1). α → 0 is the limit
+/// μ·log(1 + x), evaluated without division by zero.
+struct CurveValue {
+  double value = 0, d1 = 0, d2 = 0;  ///< η, η', η''
+};
+CurveValue evaluate_curve(const Curve& c, double x);
+
+class MaterialLaw {
+ public:
+  explicit MaterialLaw(const MaterialParameters& parameters);
+
+  const MaterialParameters& parameters() const { return parameters_; }
+  /// Number of columns of every parameter derivative (= parameters().flat_size()).
+  int num_parameters() const { return layout_.size; }
+
+  /// ψ(e) [Pa]. Optional ∂ψ/∂e (3) and ∂²ψ/∂e² (3×3, symmetric); pass nullptr to skip.
+  double energy_density(const Vector3& e, Vector3* gradient = nullptr,
+                        Matrix3* hessian = nullptr) const;
+
+  /// Parameter derivatives at strain e in the flat layout of parameters.hpp:
+  /// ∂ψ/∂k (num_parameters()) and the mixed ∂²ψ/∂e∂k (3 × num_parameters()).
+  /// Columns of density and thickness are zero (they do not enter ψ); either output may be
+  /// nullptr. Outputs are resized.
+  void parameter_derivatives(const Vector3& e, Eigen::VectorXd* dpsi_dk,
+                             StrainParameterMatrix* d2psi_de_dk) const;
+
+ private:
+  MaterialParameters parameters_;
+  FlatLayout layout_;
+};
+
+}  // namespace twill

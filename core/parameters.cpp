@@ -1,0 +1,91 @@
+#include "core/parameters.hpp"
+
+#include <cassert>
+#include <stdexcept>
+
+namespace twill {
+namespace {
+
+void append_curve_flat(const Curve& c, Eigen::VectorXd& flat, int& at) {
+  for (int i = 1; i < c.degree(); ++i) flat[at++] = c.mu[static_cast<size_t>(i)];
+  for (int i = 0; i < c.degree(); ++i) flat[at++] = c.alpha[static_cast<size_t>(i)];
+}
+
+void read_curve_flat(Curve& c, const Eigen::VectorXd& flat, int& at) {
+  double rest = 0.0;
+  for (int i = 1; i < c.degree(); ++i) {
+    c.mu[static_cast<size_t>(i)] = flat[at++];
+    rest += c.mu[static_cast<size_t>(i)];
+  }
+  c.mu[0] = 1.0 - rest;  // Σμ = 1 by construction (paper §3.1)
+  for (int i = 0; i < c.degree(); ++i) c.alpha[static_cast<size_t>(i)] = flat[at++];
+}
+
+void append_curve_names(const std::string& name, const Curve& c, std::vector<std::string>& out) {
+  for (int i = 1; i < c.degree(); ++i) out.push_back(name + ".mu[" + std::to_string(i) + "]");
+  for (int i = 0; i < c.degree(); ++i) out.push_back(name + ".alpha[" + std::to_string(i) + "]");
+}
+
+}  // namespace
+
+FlatLayout::FlatLayout(const MaterialParameters& p) {
+  eta1 = kFirstCurve;
+  eta3 = eta1 + 2 * p.eta1.degree() - 1;
+  eta4 = eta3 + 2 * p.eta3.degree() - 1;
+  size = eta4 + 2 * p.eta4.degree() - 1;
+}
+
+int MaterialParameters::flat_size() const { return FlatLayout(*this).size; }
+
+Eigen::VectorXd MaterialParameters::to_flat() const {
+  Eigen::VectorXd flat(flat_size());
+  flat[FlatLayout::kDensity] = density_kg_m2;
+  flat[FlatLayout::kThickness] = thickness_m;
+  flat[FlatLayout::kA11] = a11_Pa;
+  flat[FlatLayout::kA12] = a12_Pa;
+  flat[FlatLayout::kA22] = a22_Pa;
+  flat[FlatLayout::kG12] = G12_Pa;
+  int at = FlatLayout::kFirstCurve;
+  append_curve_flat(eta1, flat, at);
+  append_curve_flat(eta3, flat, at);
+  append_curve_flat(eta4, flat, at);
+  assert(at == flat.size());
+  return flat;
+}
+
+void MaterialParameters::set_from_flat(const Eigen::VectorXd& flat) {
+  if (flat.size() != flat_size())
+    throw std::invalid_argument("MaterialParameters::set_from_flat: vector has " +
+                                std::to_string(flat.size()) + " entries, the layout needs " +
+                                std::to_string(flat_size()));
+  density_kg_m2 = flat[FlatLayout::kDensity];
+  thickness_m = flat[FlatLayout::kThickness];
+  a11_Pa = flat[FlatLayout::kA11];
+  a12_Pa = flat[FlatLayout::kA12];
+  a22_Pa = flat[FlatLayout::kA22];
+  G12_Pa = flat[FlatLayout::kG12];
+  int at = FlatLayout::kFirstCurve;
+  read_curve_flat(eta1, flat, at);
+  read_curve_flat(eta3, flat, at);
+  read_curve_flat(eta4, flat, at);
+}
+
+std::vector<std::string> MaterialParameters::parameter_names() const {
+  std::vector<std::string> names = {"density_kg_m2", "thickness_m", "a11_Pa",
+                                    "a12_Pa",        "a22_Pa",      "G12_Pa"};
+  append_curve_names("eta1", eta1, names);
+  append_curve_names("eta3", eta3, names);
+  append_curve_names("eta4", eta4, names);
+  return names;
+}
+
+int MaterialParameters::index_of(const std::string& name) const {
+  const auto names = parameter_names();
+  for (size_t i = 0; i < names.size(); ++i)
+    if (names[i] == name) return static_cast<int>(i);
+  std::string known;
+  for (const auto& n : names) known += (known.empty() ? "" : ", ") + n;
+  throw std::invalid_argument("unknown parameter '" + name + "'; known: " + known);
+}
+
+}  // namespace twill

@@ -1,0 +1,86 @@
+#pragma once
+// Material parameters of the Clyde–Teran–Tamstorf model (paper Table 1, docs/model.md §5)
+// and their flat-vector view for optimisers and derivatives.
+//
+// Units: SI everywhere in this struct (Pa, m, kg/m²). Parameter *files* use the same SI
+// units with the unit in the key name (see params_io.hpp).
+//
+// Flat vector layout (the order of every ∂/∂k in twill; `parameter_names()` spells it out):
+//
+//   0 density_kg_m2   1 thickness_m
+//   2 a11_Pa          3 a12_Pa          4 a22_Pa          5 G12_Pa
+//   then for each curve c in (eta1, eta3, eta4), degree d:
+//     c.mu[1] … c.mu[d-1]      (d − 1 entries; mu[0] = 1 − Σ_{i≥1} mu[i] is *dependent*)
+//     c.alpha[0] … c.alpha[d-1] (d entries)
+//
+// Σμ = 1 (η'(0) = 1, paper §3.1) therefore holds by construction for every flat vector.
+// Strain cutoffs are not in the flat vector: the protocol sets them by rule (§5.2 steps 4, 6),
+// they are never solved for.
+#include <Eigen/Core>
+#include <algorithm>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace twill {
+
+/// One Ogden-like curve η(x) = Σ_i μ_i/α_i ((x+1)^α_i − 1) (paper §3.1). Degree = size.
+struct Curve {
+  std::vector<double> mu;     ///< weights, Σ mu = 1
+  std::vector<double> alpha;  ///< exponents, ≠ 0
+
+  int degree() const { return static_cast<int>(mu.size()); }
+  /// The linear curve η(x) = x (degree 1, μ = 1, α = 1): orthotropic St. Venant–Kirchhoff.
+  static Curve linear() { return Curve{{1.0}, {1.0}}; }
+};
+
+/// Validity box of the orthotropic strain (paper §3.2, model.md §4). nullopt = "off" (±∞).
+/// The shear box is symmetric: Ẽ12 ∈ [−E12_max, E12_max].
+struct Cutoffs {
+  std::optional<double> E11_min = 0.0;
+  std::optional<double> E11_max;
+  std::optional<double> E22_min = 0.0;
+  std::optional<double> E22_max;
+  std::optional<double> E12_max;
+};
+
+struct MaterialParameters {
+  double density_kg_m2 = 0.1;  ///< areal mass ρ_A [kg/m²]
+  double thickness_m = 5e-4;   ///< shell thickness τ [m]
+  double a11_Pa = 1e7;         ///< warp small-strain stiffness [Pa]
+  double a12_Pa = 5e6;         ///< coupling stiffness [Pa]; the paper sets ½ min(a11, a22) (§5.2)
+  double a22_Pa = 1e7;         ///< weft small-strain stiffness [Pa]
+  double G12_Pa = 1e5;         ///< shear small-strain stiffness [Pa]
+  Curve eta1 = Curve::linear();  ///< warp stretch curve
+  Curve eta3 = Curve::linear();  ///< weft stretch curve
+  Curve eta4 = Curve::linear();  ///< shear curve
+  Cutoffs cutoffs;
+
+  /// Number of entries of the flat vector (depends on the three degrees).
+  int flat_size() const;
+  /// Flat vector in the layout documented above.
+  Eigen::VectorXd to_flat() const;
+  /// Sets every flat-vector entry (degrees, cutoffs unchanged); mu[0] of each curve becomes
+  /// 1 − Σ of the others. `flat.size()` must equal flat_size().
+  void set_from_flat(const Eigen::VectorXd& flat);
+  /// Names of the flat entries, e.g. "a11_Pa", "eta1.mu[1]", "eta4.alpha[0]".
+  std::vector<std::string> parameter_names() const;
+  /// Index of a named flat entry; throws std::invalid_argument listing the known names.
+  int index_of(const std::string& name) const;
+
+  /// a12 = ½ min(a11, a22): the paper's choice, since the standard tests do not identify a12.
+  static double tied_a12(double a11, double a22) { return 0.5 * std::min(a11, a22); }
+};
+
+/// Offsets of the blocks in the flat vector (used by the law's derivative code).
+struct FlatLayout {
+  static constexpr int kDensity = 0, kThickness = 1, kA11 = 2, kA12 = 3, kA22 = 4, kG12 = 5;
+  static constexpr int kFirstCurve = 6;
+  int eta1 = 0, eta3 = 0, eta4 = 0;  ///< offset of each curve's block (its mu[1] entry)
+  int size = 0;
+  explicit FlatLayout(const MaterialParameters& p);
+  /// Offset of a curve block's first alpha entry.
+  static int alpha_offset(int curve_offset, int degree) { return curve_offset + degree - 1; }
+};
+
+}  // namespace twill
