@@ -1,0 +1,124 @@
+#include "experiments/tensile_test.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+
+#include "core/constrained_dofs.hpp"
+
+namespace twill {
+
+bool TensileSetup::validate(std::string* error) const {
+  auto fail = [error](const std::string& message) {
+    if (error) *error = message;
+    return false;
+  };
+  if (!(width_mm > 0)) return fail("width_mm must be > 0, got " + std::to_string(width_mm));
+  if (!(gauge_length_mm > 0))
+    return fail("gauge_length_mm must be > 0, got " + std::to_string(gauge_length_mm));
+  if (cells_across < 1) return fail("cells_across must be ≥ 1, got " + std::to_string(cells_across));
+  if (cells_along < 1) return fail("cells_along must be ≥ 1, got " + std::to_string(cells_along));
+  if (!std::isfinite(angle_deg)) return fail("angle_deg must be finite");
+  return true;
+}
+
+StripSpec TensileSetup::strip() const {
+  StripSpec s;
+  s.length_m = 1e-3 * gauge_length_mm;
+  s.width_m = 1e-3 * width_mm;
+  s.cells_across = cells_across;
+  s.cells_along = cells_along;
+  s.angle_deg = angle_deg;
+  return s;
+}
+
+namespace {
+
+const TensileSetup& checked(const TensileSetup& setup) {
+  std::string error;
+  if (!setup.validate(&error)) throw std::invalid_argument("tensile setup: " + error);
+  return setup;
+}
+
+std::vector<int> held_dofs(const Discretization& d, bool planar) {
+  std::vector<int> nodes = d.clamped_nodes(StripEnd::Start, false);
+  const std::vector<int> end = d.clamped_nodes(StripEnd::End, false);
+  nodes.insert(nodes.end(), end.begin(), end.end());
+  std::vector<int> dofs = ConstrainedDofs::node_dofs(nodes);
+  if (planar)
+    for (int n = 0; n < d.num_nodes(); ++n) dofs.push_back(3 * n + 2);
+  std::sort(dofs.begin(), dofs.end());
+  dofs.erase(std::unique(dofs.begin(), dofs.end()), dofs.end());
+  return dofs;
+}
+
+SparseMatrix make_lateral_probe(const Discretization& d) {
+  const StripSpec& s = d.strip();
+  return d.point_evaluation({Eigen::Vector2d(0.5 * s.length_m, -0.5 * s.width_m),
+                             Eigen::Vector2d(0.5 * s.length_m, 0.5 * s.width_m)});
+}
+
+}  // namespace
+
+TensileExperiment::TensileExperiment(const TensileSetup& setup, const DiscretizationFactory& factory,
+                                     const MaterialParameters& parameters,
+                                     const EquilibriumOptions& solver)
+    : setup_(checked(setup)),
+      discretization_(factory(setup.strip(), parameters)),
+      moving_nodes_(discretization_->clamped_nodes(StripEnd::End, false)),
+      fixed_dofs_(held_dofs(*discretization_, setup.planar)),
+      lateral_probe_(make_lateral_probe(*discretization_)),
+      solver_(*discretization_, fixed_dofs_, solver) {}
+
+void TensileExperiment::set_parameters(const MaterialParameters& parameters) {
+  discretization_->set_parameters(parameters);
+}
+
+double TensileExperiment::force_from_gradient(const Eigen::VectorXd& gradient) const {
+  double force = 0;
+  for (int n : moving_nodes_) force += gradient[3 * n];
+  return force;
+}
+
+double TensileExperiment::lateral_strain(const Eigen::VectorXd& q) const {
+  const Eigen::VectorXd p = lateral_probe_ * q;
+  return (p.segment<3>(3) - p.segment<3>(0)).norm() / (1e-3 * setup_.width_mm) - 1.0;
+}
+
+TensileCurve TensileExperiment::run(const std::vector<double>& extensions_mm,
+                                    const EquilibriumObserver& observer) {
+  const auto start = std::chrono::steady_clock::now();
+  const Eigen::VectorXd& rest = discretization_->rest_positions();
+  const double length_m = 1e-3 * setup_.gauge_length_mm;
+  TensileCurve curve;
+
+  // First guess: the affine stretch for the first extension (exact without clamps).
+  Eigen::VectorXd q = rest;
+  if (!extensions_mm.empty()) {
+    const double stretch = 1e-3 * extensions_mm.front() / length_m;
+    for (int n = 0; n < discretization_->num_nodes(); ++n) q[3 * n] = rest[3 * n] * (1.0 + stretch);
+  }
+  auto apply_step = [&](int step, Eigen::VectorXd* x) {
+    const double u = 1e-3 * extensions_mm[static_cast<size_t>(step)];
+    for (int n : moving_nodes_) (*x)[3 * n] = rest[3 * n] + u;
+  };
+  auto on_step = [&](int step, const Eigen::VectorXd& x, const EquilibriumSummary& summary) {
+    TensilePoint p;
+    p.extension_mm = extensions_mm[static_cast<size_t>(step)];
+    p.force_N = force_from_gradient(solver_.gradient());
+    p.lateral_strain = lateral_strain(x);
+    p.solve = summary;
+    curve.points.push_back(p);
+    if (observer) observer(step, x, solver_);
+  };
+  const ContinuationSummary summary = solver_.solve_continuation(
+      static_cast<int>(extensions_mm.size()), apply_step, &q, on_step);
+  curve.completed = summary.completed;
+  curve.message = summary.message;
+  curve.newton_iterations = summary.total_newton_iterations;
+  curve.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return curve;
+}
+
+}  // namespace twill

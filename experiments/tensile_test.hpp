@@ -1,0 +1,110 @@
+#pragma once
+// The simulated ASTM D5035-like strip tensile test (paper §4, §5.5.1; docs/model.md §7).
+//
+// Geometry: a strip of gauge length L (clamp separation at zero extension) and width W,
+// clamped across its full width at both ends; the end at x = 0 is held, the end at x = L is
+// displaced by u along the strip axis (+x). The material frame is at `angle_deg` between the
+// strip axis and the weft (weft 0°, warp 90°, bias 45°).
+//
+// Clamp model: Discretization::clamped_nodes(end, clamp_slope = false) — every node that
+// carries the surface along the clamp line is held at its rest position (Start) or its rest
+// position + u·x̂ (End): the jaws hold the full width rigidly, with no lateral contraction.
+//
+// Observables (paper §5.5.1):
+// - force_N: the axial force the strip exerts on the moving clamp, Σ_c ∂Ψ/∂q_c,x over the
+//   moving clamp's nodes (positive in tension; discretization.hpp gives the sign argument);
+// - lateral_strain: engineering strain of the width at mid-gauge, |p(L/2, W/2) − p(L/2, −W/2)|
+//   / W − 1 (what a video extensometer reports; negative when the strip narrows).
+//
+// Out-of-plane motion: a flat strip pulled in its plane has no out-of-plane load, so its flat
+// state is an equilibrium (the independent references are planar membranes). Its out-of-plane
+// stiffness is bending only, about 1e-7 of the membrane's, and lateral compression near the
+// jaws makes that block indefinite (the flat state is then a saddle: wrinkling). With
+// `planar = true` (default) the z dofs are held, which selects the flat equilibrium exactly
+// and halves the system; `planar = false` solves in 3-D (the solver's failsafe handles the
+// indefinite block; forces agree with the planar solve while the strip stays flat).
+//
+// Continuation: the extensions are applied in the order given (loading then unloading rows
+// are fine: the law is elastic); each step starts from the previous equilibrium, the first
+// from the affine stretch x ← x·(1 + u/L), which is exact for a uniform strip without clamps.
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/discretization.hpp"
+#include "core/equilibrium_solver.hpp"
+#include "experiments/strip_factory.hpp"
+
+namespace twill {
+
+struct TensileSetup {
+  double angle_deg = 90.0;         ///< strip axis vs weft
+  double width_mm = 50.0;          ///< W
+  double gauge_length_mm = 75.0;   ///< L
+  int cells_across = 8;            ///< resolution across W
+  int cells_along = 12;            ///< resolution along L
+  bool planar = true;              ///< hold the out-of-plane dofs (see header)
+
+  /// Ceres-style check naming the first offending field.
+  bool validate(std::string* error) const;
+  StripSpec strip() const;
+};
+
+struct TensilePoint {
+  double extension_mm = 0;
+  double force_N = 0;
+  double lateral_strain = 0;
+  EquilibriumSummary solve;  ///< what the equilibrium solve of this point did
+};
+
+struct TensileCurve {
+  std::vector<TensilePoint> points;  ///< one per converged extension, in schedule order
+  bool completed = false;            ///< every extension converged
+  std::string message;               ///< why it stopped early, if it did
+  double wall_time_s = 0;
+  int newton_iterations = 0;         ///< total over the curve
+};
+
+class TensileExperiment {
+ public:
+  /// Called at each converged extension with the step index, the equilibrium q and the
+  /// solver (its factorisation of K_ff at q is valid: the sensitivity solve hooks in here).
+  using EquilibriumObserver =
+      std::function<void(int step, const Eigen::VectorXd& q, const EquilibriumSolver& solver)>;
+
+  /// Builds the mesh through `factory`. Throws std::invalid_argument if setup is invalid.
+  TensileExperiment(const TensileSetup& setup, const DiscretizationFactory& factory,
+                    const MaterialParameters& parameters, const EquilibriumOptions& solver = {});
+
+  /// Runs the loading schedule (mm, any order). Never throws for a failed solve: the curve
+  /// then ends early with completed = false and a message.
+  TensileCurve run(const std::vector<double>& extensions_mm,
+                   const EquilibriumObserver& observer = {});
+
+  /// Replaces the material (mesh and solver set-up are kept).
+  void set_parameters(const MaterialParameters& parameters);
+
+  const TensileSetup& setup() const { return setup_; }
+  Discretization& discretization() { return *discretization_; }
+  const Discretization& discretization() const { return *discretization_; }
+  /// Nodes of the moving clamp (x = L) and the dofs held in total.
+  const std::vector<int>& moving_clamp_nodes() const { return moving_nodes_; }
+  const std::vector<int>& fixed_dofs() const { return fixed_dofs_; }
+  /// Lateral-strain probe: positions of (L/2, ∓W/2) are P q (6 × #dofs).
+  const SparseMatrix& lateral_probe() const { return lateral_probe_; }
+
+  /// Observables of a configuration: force [N] from a gradient (#dofs), lateral strain from q.
+  double force_from_gradient(const Eigen::VectorXd& gradient) const;
+  double lateral_strain(const Eigen::VectorXd& q) const;
+
+ private:
+  TensileSetup setup_;
+  std::unique_ptr<Discretization> discretization_;
+  std::vector<int> moving_nodes_;
+  std::vector<int> fixed_dofs_;
+  SparseMatrix lateral_probe_;
+  EquilibriumSolver solver_;
+};
+
+}  // namespace twill

@@ -1,0 +1,10 @@
+#!/usr/bin/env bash
+# README command 1: dependencies, Release build, and the main job on the bundled example.
+set -euo pipefail
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+"$root/scripts/install-deps.sh"
+"$root/scripts/build.sh"
+build="${TWILL_BUILD_DIR:-$root/build}"
+mkdir -p "$root/out"
+"$build/app/twill" inspect "$root/examples/canvas" --plot "$root/out/canvas-raw-curves.png"
+echo "bootstrap: done; plot in out/canvas-raw-curves.png"

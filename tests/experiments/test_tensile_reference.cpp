@@ -1,0 +1,117 @@
+// Tensile strips on the Catmull–Clark Kirchhoff–Love shell against the independent planar
+// membrane references of ../shared/data/reference/ (README there: converged to ~0.1 % for
+// warp/weft, Richardson-extrapolated for the off-axis angles), and their convergence under
+// refinement 8×12 → 16×24 → 32×48.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+#include <string>
+
+#include "core/dataset.hpp"
+#include "core/params_io.hpp"
+#include "discretizations/catmull_clark_kl/catmull_clark_kl.hpp"
+#include "experiments/tensile_test.hpp"
+
+namespace twill {
+namespace {
+
+const std::string kReference = std::string(TWILL_SHARED_DIR) + "/data/reference/";
+
+struct Case {
+  std::string material, label;
+  double angle_deg;
+  double tolerance;  // issue #3: 2 % warp/weft, 4 % off-axis
+};
+
+DiscretizationFactory catmull_clark() {
+  return [](const StripSpec& s, const MaterialParameters& p) -> std::unique_ptr<Discretization> {
+    return std::make_unique<CatmullClarkKL>(s, p);
+  };
+}
+
+/// Simulated force at every reference extension, at a resolution (cached: several tests
+/// share the 32×48 curves).
+const TensileCurve& simulate(const Case& c, int across, int along) {
+  static std::map<std::string, TensileCurve> cache;
+  const std::string key = c.material + c.label + std::to_string(across);
+  if (auto it = cache.find(key); it != cache.end()) return it->second;
+  const MaterialParameters p = read_params_file(kReference + c.material + "/params.yaml");
+  const TensileRun ref = read_tensile_run_csv(kReference + c.material + "/tensile-" + c.label + ".csv");
+  TensileSetup setup;
+  setup.angle_deg = c.angle_deg;
+  setup.cells_across = across;
+  setup.cells_along = along;
+  TensileExperiment experiment(setup, catmull_clark(), p);
+  return cache[key] = experiment.run(ref.extension_mm);
+}
+
+/// Largest relative deviation from the reference over points above 1 N.
+double worst_relative_error(const Case& c, const TensileCurve& curve) {
+  const TensileRun ref = read_tensile_run_csv(kReference + c.material + "/tensile-" + c.label + ".csv");
+  EXPECT_EQ(curve.points.size(), ref.size());
+  double worst = 0;
+  for (size_t i = 0; i < std::min(curve.points.size(), ref.size()); ++i) {
+    if (ref.force_N[i] <= 1.0) continue;
+    worst = std::max(worst, std::abs(curve.points[i].force_N - ref.force_N[i]) / ref.force_N[i]);
+  }
+  return worst;
+}
+
+class TensileReference : public ::testing::TestWithParam<Case> {};
+
+TEST_P(TensileReference, AgreesAt32x48) {
+  const Case& c = GetParam();
+  const TensileCurve& curve = simulate(c, 32, 48);
+  ASSERT_TRUE(curve.completed) << curve.message;
+  const double worst = worst_relative_error(c, curve);
+  std::printf("[measured] %s %s (%.1f deg) 32x48: worst force error %.3f %% over points > 1 N, %.2f s, %d Newton its\n",
+              c.material.c_str(), c.label.c_str(), c.angle_deg, 100 * worst, curve.wall_time_s,
+              curve.newton_iterations);
+  EXPECT_LT(worst, c.tolerance);
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Canvas, TensileReference,
+    ::testing::Values(Case{"canvas", "warp", 90, 0.02}, Case{"canvas", "weft", 0, 0.02},
+                      Case{"canvas", "bias", 45, 0.04}, Case{"canvas", "a22.5", 22.5, 0.04},
+                      Case{"canvas", "a67.5", 67.5, 0.04}),
+    [](const auto& info) { return info.param.material + "_" + (info.param.label == "a22.5" ? "a22_5" : info.param.label == "a67.5" ? "a67_5" : info.param.label); });
+
+INSTANTIATE_TEST_SUITE_P(
+    Poplin, TensileReference,
+    ::testing::Values(Case{"poplin", "warp", 90, 0.02}, Case{"poplin", "weft", 0, 0.02},
+                      Case{"poplin", "bias", 45, 0.04}),
+    [](const auto& info) { return info.param.material + "_" + info.param.label; });
+
+class TensileRefinement : public ::testing::TestWithParam<Case> {};
+
+TEST_P(TensileRefinement, ForceConvergesUnderRefinement) {
+  // Differences between successive resolutions at the largest common extension: they must
+  // shrink, and the observed order log2(|f8 − f16| / |f16 − f32|) is reported.
+  const Case& c = GetParam();
+  const TensileCurve& f8 = simulate(c, 8, 12);
+  const TensileCurve& f16 = simulate(c, 16, 24);
+  const TensileCurve& f32 = simulate(c, 32, 48);
+  ASSERT_TRUE(f8.completed && f16.completed && f32.completed);
+  double d1 = 0, d2 = 0;
+  for (size_t i = 0; i < f32.points.size(); ++i) {
+    const double scale = std::abs(f32.points[i].force_N);
+    if (scale <= 1.0) continue;
+    d1 = std::max(d1, std::abs(f8.points[i].force_N - f16.points[i].force_N) / scale);
+    d2 = std::max(d2, std::abs(f16.points[i].force_N - f32.points[i].force_N) / scale);
+  }
+  const double order = std::log2(d1 / d2);
+  std::printf("[measured] %s %s: max rel. change 8x12->16x24 %.3e, 16x24->32x48 %.3e, observed order %.2f\n",
+              c.material.c_str(), c.label.c_str(), d1, d2, order);
+  EXPECT_LT(d2, d1);
+  EXPECT_GT(order, 0.5);
+}
+
+INSTANTIATE_TEST_SUITE_P(Canvas, TensileRefinement,
+                         ::testing::Values(Case{"canvas", "warp", 90, 0.02}, Case{"canvas", "weft", 0, 0.02},
+                                           Case{"canvas", "bias", 45, 0.04}),
+                         [](const auto& info) { return info.param.label; });
+
+}  // namespace
+}  // namespace twill
