@@ -49,12 +49,28 @@ CantileverResult CantileverExperiment::solve(double overhang_mm) const {
   EquilibriumSolver solver(d, fixed, solver_options_);
   const SparseMatrix tip_probe = d.point_evaluation({Eigen::Vector2d(strip.length_m, 0.0)});
 
-  last_q_ = d.rest_positions();
+  // Warm start: the previous equilibrium (same mesh topology) stretched along the strip to the
+  // new overhang is close to the new one during an overhang search, and the thin strip's
+  // large rotation makes a cold Newton start from flat slow (tens of damped steps).
+  const bool warm = last_q_.size() == d.num_dofs() && last_overhang_mm_ > 0;
+  int steps = setup_.gravity_steps;
+  if (warm) {
+    const double s = overhang_mm / last_overhang_mm_;
+    for (int n = 0; n < d.num_nodes(); ++n) {
+      last_q_[3 * n] *= s;
+      last_q_[3 * n + 2] *= s;
+    }
+    for (int n : d.clamped_nodes(StripEnd::Start, true)) last_q_.segment<3>(3 * n) = d.rest_positions().segment<3>(3 * n);
+    steps = 1;
+  } else {
+    last_q_ = d.rest_positions();
+  }
   auto apply_step = [&](int step, Eigen::VectorXd*) {
-    const double fraction = static_cast<double>(step + 1) / setup_.gravity_steps;
+    const double fraction = static_cast<double>(step + 1) / steps;
     d.set_gravity(Eigen::Vector3d(0, 0, -kStandardGravity_m_s2 * fraction));
   };
-  const ContinuationSummary summary = solver.solve_continuation(setup_.gravity_steps, apply_step, &last_q_);
+  const ContinuationSummary summary = solver.solve_continuation(steps, apply_step, &last_q_);
+  last_overhang_mm_ = summary.completed ? overhang_mm : 0.0;
   const Eigen::Vector3d tip = tip_probe * last_q_;
   result.converged = summary.completed;
   result.message = summary.message;

@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # README command 1: dependencies, Release build, and the main job on the bundled example.
 set -euo pipefail
+# Small sparse systems: one BLAS/OpenMP thread is fastest (threads oversubscribe 2 cores).
+export OMP_NUM_THREADS="${OMP_NUM_THREADS:-1}" OPENBLAS_NUM_THREADS="${OPENBLAS_NUM_THREADS:-1}"
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 "$root/scripts/install-deps.sh"
 "$root/scripts/build.sh"

@@ -1,0 +1,35 @@
+#pragma once
+// The `twill` program: one file per command (command_<name>.cpp), each adding itself to the
+// CLI11 app with one function, so a new command is one file plus one line in main.cpp.
+//
+// Conventions every command follows:
+// - output for people goes to stdout; errors are thrown, never printed and swallowed;
+// - bad input (files, options) throws twill::InputError: main prints `twill: error: <msg>` and
+//   exits with status 2; any other failure exits with status 1;
+// - implementations are created through Context::registry (core/registry.hpp), never by
+//   naming concrete classes, so every registered alternative is reachable from the command line.
+#include <CLI/CLI.hpp>
+#include <filesystem>
+#include <string>
+
+#include "core/registry.hpp"
+
+namespace twill {
+
+/// What every command may use. Built once in main().
+struct Context {
+  Registry registry;                   ///< every registered implementation
+  std::filesystem::path scripts_dir;   ///< the repository's scripts/ (plot helpers)
+  std::string python = "/usr/bin/python3";  ///< Debian's python, which sees python3-matplotlib
+};
+
+/// `twill list [CATEGORY]`: every registered name per category, with description and options.
+void add_list_command(CLI::App& app, Context& context);
+/// `twill inspect DATASET [--plot FILE] [--seed N]`: summary of a dataset folder, optional plot.
+void add_inspect_command(CLI::App& app, Context& context);
+/// `twill simulate ...`: one tensile curve or cantilever (command_simulate.cpp).
+void add_simulate_command(CLI::App& app, Context& context);
+/// `twill bench --reference DIR`: tensile-curve timings per discretization and resolution.
+void add_bench_command(CLI::App& app, Context& context);
+
+}  // namespace twill

@@ -1,0 +1,64 @@
+// twill: fabric tests -> simulation-ready cloth parameters (Clyde, Teran & Tamstorf, SCA 2017).
+//
+// main() builds the one Registry, registers every module, adds one subcommand per
+// command_<name>.cpp, and turns errors into `twill: error: <message>` with an exit status:
+// 0 success, 1 failure, 2 bad input (InputError or a malformed command line).
+#include <CLI/CLI.hpp>
+#include <exception>
+#include <iostream>
+
+#include "app/commands.hpp"
+#include "core/input_error.hpp"
+#include "discretizations/catmull_clark_kl/register_catmull_clark_kl.hpp"
+#include "discretizations/triangle_shell/register_triangle_shell.hpp"
+
+namespace {
+
+// The scripts/ folder of the source tree this binary was built from. TWILL_SOURCE_DIR wins
+// when the build defines it; otherwise this file's own path (CMake compiles it by absolute
+// path) locates the tree.
+std::filesystem::path scripts_dir() {
+#ifdef TWILL_SOURCE_DIR
+  return std::filesystem::path(TWILL_SOURCE_DIR) / "scripts";
+#else
+  return std::filesystem::path(__FILE__).parent_path().parent_path() / "scripts";
+#endif
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  twill::Context context;
+  context.scripts_dir = scripts_dir();
+  CLI::App app{"twill: fabric tests -> simulation-ready cloth parameters\n"
+               "(Clyde, Teran & Tamstorf, \"Modeling and data-driven parameter estimation for woven fabrics\", SCA 2017)",
+               "twill"};
+  try {
+    // ---- Registration: one call per module (core/registry.hpp says how to write one) ------
+    twill::register_catmull_clark_kl(context.registry);
+    twill::register_triangle_shell(context.registry);
+    // -----------------------------------------------------------------------------------------
+
+    app.set_version_flag("--version", std::string(TWILL_VERSION));
+    app.require_subcommand(1);
+    // ---- Commands: one line per command_<name>.cpp -------------------------------------------
+    twill::add_list_command(app, context);
+    twill::add_inspect_command(app, context);
+    twill::add_simulate_command(app, context);
+    twill::add_bench_command(app, context);
+    // -----------------------------------------------------------------------------------------
+
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+    std::cerr << "twill: error: " << e.what() << "\n(run 'twill --help' or 'twill <command> --help')\n";
+    return 2;
+  } catch (const twill::InputError& e) {
+    std::cerr << "twill: error: " << e.what() << "\n";
+    return 2;
+  } catch (const std::exception& e) {
+    std::cerr << "twill: error: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}

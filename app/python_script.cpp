@@ -1,0 +1,67 @@
+#include "app/python_script.hpp"
+
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <stdexcept>
+#include <system_error>
+
+extern char** environ;
+
+namespace twill {
+namespace {
+
+// The exit status the scripts use for "matplotlib cannot be imported".
+constexpr int kMissingMatplotlib = 3;
+
+}  // namespace
+
+void run_python_script(const Context& context, const std::string& script, const std::vector<std::string>& args) {
+  const std::filesystem::path script_path = context.scripts_dir / script;
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(script_path, ec))
+    throw std::runtime_error("plot script not found: " + script_path.string() +
+                             " (twill looks in the scripts/ folder of the source tree it was built from)");
+  if (access(context.python.c_str(), X_OK) != 0)
+    throw std::runtime_error("cannot run " + context.python + ": " + std::strerror(errno) +
+                             " (plots need Debian's python3 with python3-matplotlib)");
+
+  std::vector<std::string> argv_strings = {context.python, script_path.string()};
+  argv_strings.insert(argv_strings.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (auto& s : argv_strings) argv.push_back(s.data());
+  argv.push_back(nullptr);
+
+  // posix_spawn, not std::system: no shell, so paths with spaces or quotes need no escaping.
+  pid_t pid = 0;
+  const int spawn_error = posix_spawn(&pid, context.python.c_str(), nullptr, nullptr, argv.data(), environ);
+  if (spawn_error != 0)
+    throw std::runtime_error("cannot start " + context.python + ": " + std::strerror(spawn_error));
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0) {
+    if (errno != EINTR) throw std::runtime_error(std::string("waiting for the plot script: ") + std::strerror(errno));
+  }
+  if (WIFEXITED(status) && WEXITSTATUS(status) == 0) return;
+  if (WIFEXITED(status) && WEXITSTATUS(status) == kMissingMatplotlib)
+    throw std::runtime_error("matplotlib is not importable by " + context.python +
+                             " (install python3-matplotlib: apt-get install python3-matplotlib)");
+  const std::string how = WIFEXITED(status) ? "exit status " + std::to_string(WEXITSTATUS(status))
+                                            : "signal " + std::to_string(WTERMSIG(status));
+  throw std::runtime_error(script + " failed (" + how + "); its messages are above");
+}
+
+TemporaryDirectory::TemporaryDirectory(const std::string& prefix) {
+  std::string pattern = (std::filesystem::temp_directory_path() / (prefix + "XXXXXX")).string();
+  if (!mkdtemp(pattern.data())) throw std::runtime_error("cannot create a temporary directory: " + std::string(std::strerror(errno)));
+  path_ = pattern;
+}
+
+TemporaryDirectory::~TemporaryDirectory() {
+  std::error_code ec;  // best effort: a leftover temp folder must not turn success into failure
+  std::filesystem::remove_all(path_, ec);
+}
+
+}  // namespace twill

@@ -1,0 +1,516 @@
+#include "core/equilibrium_solver.hpp"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <utility>
+
+namespace twill {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+double max_abs(const Eigen::VectorXd& v) {
+  return v.size() > 0 ? v.lpNorm<Eigen::Infinity>() : 0.0;
+}
+
+// Diagonal of the rest positions' bounding box; 1 m when the rest state is a single point
+// (the decrement test then compares λ² with F × 1 m).
+double bounding_box_diagonal(const Eigen::VectorXd& rest) {
+  const Eigen::Index nodes = rest.size() / 3;
+  if (nodes == 0) return 1.0;
+  const auto points = Eigen::Map<const Eigen::Matrix3Xd>(rest.data(), 3, nodes);
+  const double diagonal = (points.rowwise().maxCoeff() - points.rowwise().minCoeff()).norm();
+  return diagonal > 0 && std::isfinite(diagonal) ? diagonal : 1.0;
+}
+
+}  // namespace
+
+bool EquilibriumOptions::validate(std::string* error) const {
+  std::string message;
+  const auto check = [&](bool ok, const char* field, const char* constraint, auto value) {
+    if (!ok && message.empty())
+      message = fmt::format("{} must be {} (got {})", field, constraint, value);
+  };
+  // Written as !(x > 0) etc. where a NaN must fail too.
+  check(gradient_tolerance > 0, "gradient_tolerance", "> 0", gradient_tolerance);
+  check(force_floor_N > 0, "force_floor_N", "> 0", force_floor_N);
+  check(decrement_tolerance > 0, "decrement_tolerance", "> 0", decrement_tolerance);
+  check(length_scale_m >= 0, "length_scale_m", ">= 0 (0 = automatic)", length_scale_m);
+  check(max_newton_iterations >= 1, "max_newton_iterations", ">= 1", max_newton_iterations);
+  check(armijo_c1 > 0 && armijo_c1 < 0.5, "armijo_c1", "in (0, 0.5)", armijo_c1);
+  check(backtrack_factor > 0 && backtrack_factor < 1, "backtrack_factor", "in (0, 1)",
+        backtrack_factor);
+  check(max_backtracks >= 1, "max_backtracks", ">= 1", max_backtracks);
+  check(energy_roundoff >= 0, "energy_roundoff", ">= 0", energy_roundoff);
+  check(stall_window >= 1, "stall_window", ">= 1", stall_window);
+  check(stall_energy_fraction >= 0, "stall_energy_fraction", ">= 0", stall_energy_fraction);
+  check(stall_gradient_fraction >= 0 && stall_gradient_fraction <= 1, "stall_gradient_fraction",
+        "in [0, 1]", stall_gradient_fraction);
+  check(backward_euler_steps >= 1, "backward_euler_steps", ">= 1", backward_euler_steps);
+  check(max_fallbacks >= 0, "max_fallbacks", ">= 0", max_fallbacks);
+  check(initial_time_step_s >= 0 && std::isfinite(initial_time_step_s), "initial_time_step_s",
+        "finite and >= 0 (0 = automatic)", initial_time_step_s);
+  check(time_step_growth > 1 && std::isfinite(time_step_growth), "time_step_growth",
+        "finite and > 1", time_step_growth);
+  check(max_time_step_reductions >= 1, "max_time_step_reductions", ">= 1",
+        max_time_step_reductions);
+  if (message.empty()) {
+    std::string inner;
+    if (!linear_solver.validate(&inner)) message = "linear_solver." + inner;
+  }
+  if (error) *error = message;
+  return message.empty();
+}
+
+const char* to_string(EquilibriumStatus status) {
+  switch (status) {
+    case EquilibriumStatus::kConverged:
+      return "converged";
+    case EquilibriumStatus::kMaxIterations:
+      return "max_iterations";
+    case EquilibriumStatus::kFallbackLimit:
+      return "fallback_limit";
+    case EquilibriumStatus::kFallbackFailed:
+      return "fallback_failed";
+    case EquilibriumStatus::kIndefiniteStationary:
+      return "indefinite_stationary";
+    case EquilibriumStatus::kNonFinite:
+      return "non_finite";
+  }
+  return "unknown";
+}
+
+namespace {
+SparseCholeskyOptions checked_linear_solver_options(const EquilibriumOptions& options) {
+  std::string error;
+  if (!options.validate(&error)) throw std::invalid_argument("EquilibriumOptions: " + error);
+  return options.linear_solver;
+}
+}  // namespace
+
+EquilibriumSolver::EquilibriumSolver(const Discretization& discretization,
+                                     std::vector<int> fixed_dofs, const EquilibriumOptions& options)
+    : discretization_(discretization),
+      options_(options),
+      dofs_(discretization.num_dofs(), std::move(fixed_dofs)),
+      cholesky_(checked_linear_solver_options(options)) {
+  length_scale_m_ = options_.length_scale_m > 0
+                        ? options_.length_scale_m
+                        : bounding_box_diagonal(discretization_.rest_positions());
+}
+
+double EquilibriumSolver::evaluate(const Eigen::VectorXd& q, Eigen::VectorXd* gradient,
+                                   SparseMatrix* hessian, EquilibriumSummary* summary) const {
+  ++summary->energy_evaluations;
+  const double psi = discretization_.energy(q, gradient, hessian);
+  if (hessian && !hessian->isCompressed()) hessian->makeCompressed();
+  return psi;
+}
+
+void EquilibriumSolver::prepare_patterns() {
+  if (patterns_ready_ && dofs_.same_pattern(hessian_)) return;
+  dofs_.analyze(hessian_);
+  dofs_.extract_free_free(hessian_, &k_ff_);
+  dofs_.extract_free_fixed(hessian_, &k_fc_);
+  k_shifted_ = k_ff_;
+  cholesky_.analyze(k_ff_);
+  patterns_ready_ = true;
+  spdlog::debug(
+      "EquilibriumSolver: {} dofs ({} free), nnz(K_ff) = {}, nnz(L) = {:.0f}, "
+      "ordering {}, BLAS {}",
+      dofs_.num_dofs(), dofs_.num_free(), k_ff_.nonZeros(), cholesky_.factor_nonzeros(),
+      cholesky_.selected_ordering(), SparseCholesky::blas_library());
+}
+
+double EquilibriumSolver::force_scale() const {
+  return std::max(max_abs(g_c_), options_.force_floor_N);
+}
+
+double EquilibriumSolver::automatic_time_step() const {
+  const std::vector<int>& diagonal = dofs_.free_free_diagonal();
+  std::vector<double> ratios;
+  ratios.reserve(diagonal.size());
+  double largest_stiffness = 0;
+  for (size_t i = 0; i < diagonal.size(); ++i) {
+    const double k_ii = k_ff_.valuePtr()[diagonal[i]];
+    largest_stiffness = std::max(largest_stiffness, std::fabs(k_ii));
+    if (k_ii > 0) ratios.push_back(mass_f_[static_cast<Eigen::Index>(i)] / k_ii);
+  }
+  if (!ratios.empty()) {
+    const auto middle = ratios.begin() + static_cast<std::ptrdiff_t>(ratios.size() / 2);
+    std::nth_element(ratios.begin(), middle, ratios.end());
+    return std::sqrt(*middle);
+  }
+  // No positive diagonal stiffness: make M/h² match the largest |K_ii| instead.
+  if (largest_stiffness > 0 && mass_f_.size() > 0) {
+    return std::sqrt(mass_f_.mean() / largest_stiffness);
+  }
+  return 1.0;
+}
+
+bool EquilibriumSolver::line_search(Eigen::VectorXd* q, double* psi, double slope, double quadratic,
+                                    bool allow_roundoff_acceptance, double* alpha,
+                                    EquilibriumSummary* summary) {
+  const double psi0 = *psi;
+  const double gradient_norm0 = max_abs(g_f_);
+  const double roundoff = options_.energy_roundoff * std::fabs(psi0);
+  double step = 1.0;
+  for (int attempt = 0; attempt <= options_.max_backtracks; ++attempt) {
+    q_trial_ = *q;
+    dofs_.add_to_free(step, direction_, &q_trial_);
+    // The full step is evaluated with gradient and Hessian: Newton accepts it most of the
+    // time, and then the next iteration needs both. Shorter steps are tried on Ψ alone.
+    const bool full = attempt == 0;
+    const double psi_trial = full ? evaluate(q_trial_, &trial_gradient_, &hessian_, summary)
+                                  : evaluate(q_trial_, nullptr, nullptr, summary);
+    if (full) hessian_at_q_ = false;
+    const double phi_trial = psi_trial + quadratic * step * step;
+    bool accept = std::isfinite(phi_trial) && phi_trial <= psi0 + options_.armijo_c1 * step * slope;
+    if (full && accept && !trial_gradient_.allFinite()) accept = false;
+    if (!accept && full && allow_roundoff_acceptance && std::isfinite(psi_trial) &&
+        psi_trial - psi0 <= roundoff && trial_gradient_.allFinite()) {
+      // Ψ cannot resolve the change any more; judge the step by the gradient instead.
+      double trial_norm = 0;
+      for (int dof : dofs_.free_dofs())
+        trial_norm = std::max(trial_norm, std::fabs(trial_gradient_[dof]));
+      accept = trial_norm < gradient_norm0;
+    }
+    if (accept) {
+      *q = q_trial_;
+      *psi = psi_trial;
+      if (full) {
+        gradient_.swap(trial_gradient_);
+      } else {
+        evaluate(*q, &gradient_, &hessian_, summary);
+      }
+      hessian_at_q_ = true;
+      *alpha = step;
+      return true;
+    }
+    ++summary->line_search_backtracks;
+    step *= options_.backtrack_factor;
+  }
+  return false;
+}
+
+bool EquilibriumSolver::backward_euler(Eigen::VectorXd* q, double* psi, double* time_step_s,
+                                       EquilibriumSummary* summary) {
+  if (!hessian_at_q_) {
+    *psi = evaluate(*q, &gradient_, &hessian_, summary);
+    hessian_at_q_ = true;
+  }
+  const std::vector<int>& diagonal = dofs_.free_free_diagonal();
+  for (int step = 0; step < options_.backward_euler_steps; ++step) {
+    dofs_.gather_free(gradient_, &g_f_);
+    dofs_.extract_free_free(hessian_, &k_ff_);
+    if (*time_step_s <= 0) *time_step_s = automatic_time_step();
+    if (max_abs(g_f_) == 0) {
+      summary->message = "backward Euler: the gradient is zero, no motion from rest";
+      return false;
+    }
+    bool stepped = false;
+    for (int reduction = 0; reduction <= options_.max_time_step_reductions; ++reduction) {
+      if (reduction > 0) *time_step_s *= 0.5;
+      const double inverse_h2 = 1.0 / (*time_step_s * *time_step_s);
+      std::copy(k_ff_.valuePtr(), k_ff_.valuePtr() + k_ff_.nonZeros(), k_shifted_.valuePtr());
+      for (size_t i = 0; i < diagonal.size(); ++i) {
+        k_shifted_.valuePtr()[diagonal[i]] += mass_f_[static_cast<Eigen::Index>(i)] * inverse_h2;
+      }
+      ++summary->factorizations;
+      if (!cholesky_.factorize(k_shifted_)) {
+        ++summary->failed_factorizations;
+        continue;
+      }
+      cholesky_.solve(g_f_, &direction_);
+      direction_ = -direction_;
+      const double slope = g_f_.dot(direction_);
+      if (!(slope < 0) || !std::isfinite(slope)) continue;
+      const double quadratic =
+          0.5 * inverse_h2 * (mass_f_.array() * direction_.array().square()).sum();
+      double alpha = 0;
+      if (line_search(q, psi, slope, quadratic, false, &alpha, summary)) {
+        ++summary->backward_euler_steps;
+        stepped = true;
+        *time_step_s = alpha == 1.0 ? *time_step_s * options_.time_step_growth
+                                    : *time_step_s / options_.time_step_growth;
+        break;
+      }
+      // k_ff_ still holds K_ff at q (the failed search only overwrote hessian_): retry with
+      // a smaller h, which shortens the step towards a gradient step.
+    }
+    if (!stepped) {
+      summary->message = fmt::format(
+          "backward Euler: no acceptable step after {} time-step halvings (h = {:.3e} s)",
+          options_.max_time_step_reductions, *time_step_s);
+      return false;
+    }
+    spdlog::debug("EquilibriumSolver: backward-Euler step {}: Ψ = {:.12e} J, next h = {:.3e} s",
+                  step + 1, *psi, *time_step_s);
+  }
+  summary->time_step_s = *time_step_s;
+  return true;
+}
+
+EquilibriumSummary EquilibriumSolver::solve(Eigen::VectorXd* q) {
+  const auto start = Clock::now();
+  if (q == nullptr || q->size() != dofs_.num_dofs()) {
+    throw std::invalid_argument(
+        fmt::format("EquilibriumSolver::solve: q must have {} entries", dofs_.num_dofs()));
+  }
+  EquilibriumSummary s;
+  s.length_scale_m = length_scale_m_;
+  factor_at_solution_ = false;
+  hessian_at_q_ = false;
+  double psi = 0;
+
+  const auto finish = [&](EquilibriumStatus status, std::string message) {
+    s.status = status;
+    s.converged = status == EquilibriumStatus::kConverged;
+    s.energy_J = psi;
+    if (gradient_.size() == dofs_.num_dofs()) {
+      dofs_.gather_free(gradient_, &g_f_);
+      dofs_.gather_fixed(gradient_, &g_c_);
+      s.gradient_norm_N = max_abs(g_f_);
+      s.force_scale_N = force_scale();
+    }
+    s.message = std::move(message);
+    s.wall_time_s = seconds_since(start);
+    spdlog::debug(
+        "EquilibriumSolver: {} after {} Newton iterations, {} fallbacks ({} BE steps), "
+        "{} factorisations, {:.3f} s: {}",
+        to_string(status), s.newton_iterations, s.fallbacks, s.backward_euler_steps,
+        s.factorizations, s.wall_time_s, s.message);
+    return s;
+  };
+
+  psi = evaluate(*q, &gradient_, &hessian_, &s);
+  s.initial_energy_J = psi;
+  if (!std::isfinite(psi) || !gradient_.allFinite()) {
+    return finish(EquilibriumStatus::kNonFinite,
+                  "energy or gradient is not finite at the initial guess");
+  }
+  prepare_patterns();
+  hessian_at_q_ = true;
+
+  const Eigen::VectorXd mass = discretization_.lumped_mass();
+  if (mass.size() != dofs_.num_dofs()) {
+    throw std::invalid_argument(
+        fmt::format("EquilibriumSolver: lumped_mass() has {} entries, "
+                    "expected {}",
+                    mass.size(), dofs_.num_dofs()));
+  }
+  dofs_.gather_free(mass, &mass_f_);
+  {
+    // Backward Euler needs M_f > 0 on every free dof: a massless dof borrows the mean mass,
+    // and a massless model uses unit masses (h is then only a shift scale).
+    const double positive_sum = (mass_f_.array() > 0).select(mass_f_, 0.0).sum();
+    const auto positive_count = (mass_f_.array() > 0).count();
+    const double fill =
+        positive_count > 0 ? positive_sum / static_cast<double>(positive_count) : 1.0;
+    for (Eigen::Index i = 0; i < mass_f_.size(); ++i) {
+      if (!(mass_f_[i] > 0)) mass_f_[i] = fill;
+    }
+  }
+  double time_step = options_.initial_time_step_s;
+
+  const auto window_size = static_cast<size_t>(options_.stall_window) + 1;
+  std::vector<double> window_energy, window_gradient;
+  window_energy.reserve(window_size + 1);
+  window_gradient.reserve(window_size + 1);
+
+  for (;;) {
+    if (!gradient_.allFinite() || !std::isfinite(psi)) {
+      return finish(EquilibriumStatus::kNonFinite, "energy or gradient became non-finite");
+    }
+    dofs_.gather_free(gradient_, &g_f_);
+    dofs_.gather_fixed(gradient_, &g_c_);
+    const double gradient_norm = max_abs(g_f_);
+    const double force = force_scale();
+    window_energy.push_back(psi);
+    window_gradient.push_back(gradient_norm);
+    if (window_energy.size() > window_size) {
+      window_energy.erase(window_energy.begin());
+      window_gradient.erase(window_gradient.begin());
+    }
+
+    dofs_.extract_free_free(hessian_, &k_ff_);
+    ++s.factorizations;
+    const bool positive_definite = cholesky_.factorize(k_ff_);
+    double slope = 0;
+    std::string reason;
+    if (positive_definite) {
+      cholesky_.solve(g_f_, &direction_);
+      direction_ = -direction_;
+      slope = g_f_.dot(direction_);
+      s.newton_decrement_J = -slope;
+      const bool small_gradient = gradient_norm <= options_.gradient_tolerance * force;
+      const bool small_decrement = -slope <= options_.decrement_tolerance * force * length_scale_m_;
+      spdlog::debug(
+          "EquilibriumSolver: iteration {}: Ψ = {:.15e} J, |g_f| = {:.3e} N "
+          "(F = {:.3e} N), λ² = {:.3e} J",
+          s.newton_iterations, psi, gradient_norm, force, -slope);
+      if (small_gradient && small_decrement) {
+        dofs_.extract_free_fixed(hessian_, &k_fc_);
+        factor_at_solution_ = true;
+        return finish(EquilibriumStatus::kConverged,
+                      fmt::format("converged: |g_f|inf = {:.3e} N <= {:.1e} x {:.3e} N, "
+                                  "lambda^2 = {:.3e} J",
+                                  gradient_norm, options_.gradient_tolerance, force, -slope));
+      }
+    } else {
+      ++s.failed_factorizations;
+      if (gradient_norm <= options_.gradient_tolerance * force) {
+        return finish(EquilibriumStatus::kIndefiniteStationary,
+                      fmt::format("stationary point (|g_f|inf = {:.3e} N) where K_ff is not "
+                                  "positive definite (column {}): not a minimum",
+                                  gradient_norm, cholesky_.failed_column()));
+      }
+      reason = fmt::format("K_ff not positive definite (column {})", cholesky_.failed_column());
+    }
+    if (s.newton_iterations >= options_.max_newton_iterations) {
+      return finish(EquilibriumStatus::kMaxIterations,
+                    fmt::format("{} Newton iterations without convergence (|g_f|inf = {:.3e} N, "
+                                "F = {:.3e} N)",
+                                s.newton_iterations, gradient_norm, force));
+    }
+    if (reason.empty() && !(slope < 0 && std::isfinite(slope))) {
+      reason = fmt::format("ascent direction (g_f.d = {:.3e})", slope);
+    }
+    if (reason.empty() && window_energy.size() == window_size) {
+      const double decrease = window_energy.front() - psi;
+      if (decrease <= options_.stall_energy_fraction * std::fabs(window_energy.front()) &&
+          gradient_norm > options_.stall_gradient_fraction * window_gradient.front()) {
+        reason = fmt::format("stall: {} Newton steps lowered the energy by {:.3e} J",
+                             options_.stall_window, decrease);
+      }
+    }
+    if (reason.empty()) {
+      double alpha = 0;
+      if (line_search(q, &psi, slope, 0.0, true, &alpha, &s)) {
+        ++s.newton_iterations;
+        continue;
+      }
+      reason = "line search found no decrease";
+    }
+
+    if (s.fallbacks >= options_.max_fallbacks) {
+      return finish(EquilibriumStatus::kFallbackLimit,
+                    fmt::format("failsafe needed ({}) but max_fallbacks = {} reached", reason,
+                                options_.max_fallbacks));
+    }
+    ++s.fallbacks;
+    s.last_fallback_reason = reason;
+    spdlog::debug("EquilibriumSolver: backward-Euler failsafe #{}: {}", s.fallbacks, reason);
+    if (!backward_euler(q, &psi, &time_step, &s)) {
+      return finish(EquilibriumStatus::kFallbackFailed, reason + "; " + s.message);
+    }
+    window_energy.clear();
+    window_gradient.clear();
+  }
+}
+
+ContinuationSummary EquilibriumSolver::solve_continuation(int num_steps,
+                                                          const LoadStepFunction& apply_step,
+                                                          Eigen::VectorXd* q,
+                                                          const StepObserver& observer,
+                                                          const ContinuationOptions& options) {
+  const auto start = Clock::now();
+  if (num_steps < 0) {
+    throw std::invalid_argument(
+        fmt::format("solve_continuation: num_steps must be >= 0 (got {})", num_steps));
+  }
+  if (!apply_step) throw std::invalid_argument("solve_continuation: apply_step is empty");
+  if (q == nullptr || q->size() != dofs_.num_dofs()) {
+    throw std::invalid_argument(
+        fmt::format("solve_continuation: q must have {} entries", dofs_.num_dofs()));
+  }
+  ContinuationSummary summary;
+  Eigen::VectorXd previous, before_previous, guess;
+  Eigen::VectorXd fixed_now, fixed_previous, fixed_before;
+  int equilibria = 0;
+  for (int step = 0; step < num_steps; ++step) {
+    apply_step(step, q);
+    if (options.extrapolate && equilibria >= 2) {
+      dofs_.gather_fixed(*q, &fixed_now);
+      dofs_.gather_fixed(previous, &fixed_previous);
+      dofs_.gather_fixed(before_previous, &fixed_before);
+      const Eigen::VectorXd last_move = fixed_previous - fixed_before;
+      const double last_move2 = last_move.squaredNorm();
+      const double ratio =
+          last_move2 > 0 ? last_move.dot(fixed_now - fixed_previous) / last_move2 : 1.0;
+      guess = *q;
+      for (int dof : dofs_.free_dofs()) {
+        guess[dof] = previous[dof] + ratio * (previous[dof] - before_previous[dof]);
+      }
+      const double psi_plain = discretization_.energy(*q, nullptr, nullptr);
+      const double psi_guess = discretization_.energy(guess, nullptr, nullptr);
+      if (std::isfinite(psi_guess) && (!(psi_guess >= psi_plain))) {
+        *q = guess;
+        ++summary.extrapolations_used;
+      }
+    }
+    EquilibriumSummary result = solve(q);
+    summary.total_newton_iterations += result.newton_iterations;
+    summary.steps.push_back(result);
+    if (!result.converged) {
+      summary.failed_step = step;
+      summary.message = fmt::format("step {} of {} did not converge ({}): {}", step, num_steps,
+                                    to_string(result.status), result.message);
+      break;
+    }
+    ++summary.steps_completed;
+    if (observer) observer(step, *q, summary.steps.back());
+    before_previous = previous;
+    previous = *q;
+    ++equilibria;
+  }
+  summary.completed = summary.steps_completed == num_steps;
+  if (summary.completed) {
+    summary.message = fmt::format("{} steps converged, {} Newton iterations in total", num_steps,
+                                  summary.total_newton_iterations);
+  }
+  summary.wall_time_s = seconds_since(start);
+  return summary;
+}
+
+const SparseCholesky& EquilibriumSolver::factorization() const {
+  if (!factor_at_solution_) {
+    throw std::logic_error(
+        "EquilibriumSolver: no factorisation at a solution (the last solve "
+        "did not converge, or none was run)");
+  }
+  return cholesky_;
+}
+
+void EquilibriumSolver::solve_free_free(const Eigen::MatrixXd& b, Eigen::MatrixXd* x,
+                                        SolveReport* report) const {
+  factorization().solve(b, x, report);
+}
+
+const EquilibriumSolver::SparseMatrix& EquilibriumSolver::free_free_hessian() const {
+  factorization();
+  return k_ff_;
+}
+
+const EquilibriumSolver::SparseMatrix& EquilibriumSolver::free_fixed_hessian() const {
+  factorization();
+  return k_fc_;
+}
+
+Eigen::VectorXd EquilibriumSolver::reaction() const {
+  Eigen::VectorXd fixed;
+  if (gradient_.size() == dofs_.num_dofs()) dofs_.gather_fixed(gradient_, &fixed);
+  return fixed;
+}
+
+}  // namespace twill

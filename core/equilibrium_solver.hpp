@@ -1,0 +1,249 @@
+#pragma once
+// Quasistatic equilibrium of a Discretization with held dofs (paper Eq. 4, §6.1–6.3).
+//
+// Problem. Minimise the total energy Ψ(q) = Ψ_elastic(q; k) + Ψ_gravity(q) [J] over the free
+// dofs q_f; the fixed dofs q_c keep the values they have in q on entry to solve(), so a
+// loading schedule moves them between solves (clamp displacement, see solve_continuation).
+//
+// Method (paper §6.1). Newton's method on the free dofs: factorise K_ff = ∂²Ψ/∂q_f² (CHOLMOD
+// supernodal LLᵀ with extended-precision iterative refinement, sparse_cholesky.hpp), direction
+// d = −K_ff⁻¹ g_f, backtracking line search on Ψ with the Armijo condition
+// Ψ(q + αd) ≤ Ψ(q) + c1·α·g_fᵀd (Nocedal & Wright Alg. 3.1). The paper's failsafe: when
+//   (a) K_ff is not positive definite (the factorisation fails), or
+//   (b) the Newton direction is not a descent direction (g_fᵀd ≥ 0, from round-off at
+//       condition numbers near 1e10), or
+//   (c) three consecutive Newton steps reduced Ψ by ≤ 0.1 % in total, or
+//   (d) the line search finds no acceptable step,
+// the solver takes `backward_euler_steps` backward-Euler steps, then resumes Newton.
+//
+// Backward Euler. From rest at q_prev, one step minimises the incremental potential
+//     Φ(q) = Ψ(q) + ½ (q_f − q_prev,f)ᵀ M_f (q_f − q_prev,f) / h²
+// (M: lumped mass from Discretization::lumped_mass() [kg]; h: time step [s]). Each step is
+// one Newton iteration on Φ (Hessian K_ff + M_f/h², positive definite for small enough h)
+// with the same Armijo line search on Φ, so Ψ never increases. The velocity is reset to
+// zero at every step (fully damped dynamics): the purpose is to slide off a saddle or out of
+// a region where Newton stalls, not to simulate motion. Choice and adaptation of h:
+//   - start: `initial_time_step_s`, or if 0, h² = median_i(m_i / K_ii) over free dofs with
+//     K_ii > 0 — the mass term then equals a typical diagonal stiffness, i.e. about half of
+//     a Newton step along typical modes and a short gradient step along soft ones;
+//   - if K_ff + M_f/h² is not positive definite or its line search fails: h ← h/2 and retry
+//     (at most `max_time_step_reductions` times per step);
+//   - after a step with a full step length (α = 1): h ← h·time_step_growth (towards Newton);
+//     after a backtracked step: h ← h/time_step_growth.
+//   h is kept between fallbacks of one solve and reported in the summary.
+//
+// Deviation from the paper, rule (c). The rule compares the decrease with |Ψ|, and |Ψ|
+// includes the gravity potential −Σ m g·x, which depends on where the origin is: the same
+// hanging chain 10 m higher has |Ψ| ≈ 51 J against an elastic change of 0.04 J, and the bare
+// rule then interrupts a Newton iteration that is converging quadratically (test
+// StallRuleDoesNotInterruptConvergingNewton). Near any solution, too, each Newton step lowers
+// Ψ by a vanishing amount. The rule therefore also requires that ‖g_f‖∞ did not fall below
+// `stall_gradient_fraction` (0.1) times its value three steps earlier: Newton converging
+// quadratically or at a good linear rate is not a stall. stall_gradient_fraction = 0 gives
+// the paper's rule unchanged.
+//
+// Convergence (scale-aware; both must hold at the same iterate):
+//   ‖g_f‖∞ ≤ gradient_tolerance · F,   F = max(‖g_c‖∞, force_floor_N)   [N]
+//   λ² = −g_fᵀd = g_fᵀ K_ff⁻¹ g_f ≤ decrement_tolerance · F · L           [J]
+// g_c is the gradient at the fixed dofs (the support reactions, gravity included), so F is the
+// largest force a support applies; force_floor_N keeps F meaningful when no support carries
+// load. λ² (the squared Newton decrement, ≈ 2 × the energy still to gain) guards against soft
+// modes where a small gradient still means a large displacement error; L is a length scale
+// (default: diagonal of the rest positions' bounding box), so F·L is an energy scale.
+// Convergence is tested right after K_ff has been factorised at the current iterate, so at a
+// converged solution the factor of K_ff *at the returned q* is available (factorization(),
+// solve_free_free()) for the sensitivity solve of paper Eq. 6: ∂q_f/∂k = −K_ff⁻¹ ∂g_f/∂k.
+//
+// Non-convergence never throws: solve() returns a summary with a status and a message.
+// Bad arguments (wrong vector size, invalid options) throw std::invalid_argument.
+// Logging: spdlog at debug level only.
+// Allocation: the Hessian, K_ff, the shifted matrix, the symbolic factorisation and the work
+// vectors are reused across iterations and solves (patterns are set up on the first solve).
+// Threads: one solver per thread (it owns a SparseCholesky and work buffers); the
+// Discretization is only read through its const interface.
+#include <Eigen/Core>
+#include <Eigen/SparseCore>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "core/constrained_dofs.hpp"
+#include "core/discretization.hpp"
+#include "core/sparse_cholesky.hpp"
+
+namespace twill {
+
+struct EquilibriumOptions {
+  // Convergence (see the header comment).
+  double gradient_tolerance = 1e-8;    ///< relative to the force scale F, > 0
+  double force_floor_N = 1e-6;         ///< lower bound of F [N], > 0
+  double decrement_tolerance = 1e-12;  ///< λ² ≤ decrement_tolerance·F·L, > 0
+  double length_scale_m = 0.0;         ///< L [m]; 0 = bounding-box diagonal of the rest state
+  int max_newton_iterations = 200;     ///< accepted Newton steps per solve, ≥ 1
+
+  // Backtracking Armijo line search (Nocedal & Wright Alg. 3.1).
+  double armijo_c1 = 1e-4;        ///< in (0, 0.5)
+  double backtrack_factor = 0.5;  ///< step multiplier per backtrack, in (0, 1)
+  int max_backtracks = 40;        ///< ≥ 1
+  /// A full Newton step whose energy change is within this fraction of |Ψ| (round-off: Ψ
+  /// is a sum of large terms, its change near the solution is below double precision) is
+  /// accepted when it lowers ‖g_f‖∞. ≥ 0.
+  double energy_roundoff = 1e-12;
+
+  // Backward-Euler failsafe (paper §6.1).
+  int stall_window = 3;                  ///< Newton steps of rule (c), ≥ 1
+  double stall_energy_fraction = 1e-3;   ///< 0.1 % total energy reduction, ≥ 0
+  double stall_gradient_fraction = 0.1;  ///< see "Deviation from the paper", in [0, 1]
+  int backward_euler_steps = 5;          ///< steps per fallback, ≥ 1
+  int max_fallbacks = 20;                ///< per solve, ≥ 0 (0: fail instead of falling back)
+  double initial_time_step_s = 0.0;      ///< h at the first fallback [s]; 0 = automatic; ≥ 0
+  double time_step_growth = 2.0;         ///< > 1
+  int max_time_step_reductions = 40;     ///< halvings of h per backward-Euler step, ≥ 1
+
+  /// The K_ff factorisation (ordering, supernodal, refinement steps).
+  SparseCholeskyOptions linear_solver;
+
+  /// Ceres-style check: false with a message naming the first offending field.
+  bool validate(std::string* error) const;
+};
+
+enum class EquilibriumStatus {
+  kConverged,
+  kMaxIterations,         ///< max_newton_iterations reached
+  kFallbackLimit,         ///< a failsafe was needed but max_fallbacks were used up
+  kFallbackFailed,        ///< backward Euler could not take a step (h reductions exhausted)
+  kIndefiniteStationary,  ///< ‖g_f‖ converged but K_ff is not positive definite (a saddle,
+                          ///< or a degenerate minimum with singular K_ff): backward Euler
+                          ///< from rest cannot leave a stationary point, and no factor exists
+  kNonFinite,             ///< Ψ or its gradient is not finite at the initial guess
+};
+const char* to_string(EquilibriumStatus status);
+
+/// What one solve() did.
+struct EquilibriumSummary {
+  EquilibriumStatus status = EquilibriumStatus::kNonFinite;
+  bool converged = false;
+  int newton_iterations = 0;       ///< accepted Newton steps
+  int line_search_backtracks = 0;  ///< step halvings, Newton and backward Euler
+  int fallbacks = 0;               ///< times the backward-Euler failsafe was entered
+  int backward_euler_steps = 0;    ///< accepted backward-Euler steps in total
+  int factorizations = 0;          ///< numeric factorisations (Newton and shifted, incl. failed)
+  int failed_factorizations = 0;   ///< of which not positive definite
+  int energy_evaluations = 0;      ///< calls of Discretization::energy
+  double initial_energy_J = 0;
+  double energy_J = 0;            ///< Ψ at the returned q
+  double gradient_norm_N = 0;     ///< ‖g_f‖∞ at the returned q
+  double force_scale_N = 0;       ///< F at the returned q
+  double newton_decrement_J = 0;  ///< λ² at the last factorised Newton iterate (0 if none)
+  double length_scale_m = 0;      ///< L used
+  double time_step_s = 0;         ///< last backward-Euler h (0 when no fallback was taken)
+  double wall_time_s = 0;
+  std::string message;               ///< why it stopped
+  std::string last_fallback_reason;  ///< what triggered the last failsafe (empty if none)
+};
+
+/// Options of EquilibriumSolver::solve_continuation.
+struct ContinuationOptions {
+  /// Start step i from a linear extrapolation of the two previous equilibria, scaled by how
+  /// far the fixed dofs moved (ρ = ⟨Δc_i, Δc_{i−1}⟩ / ‖Δc_{i−1}‖², or 1 when they did not
+  /// move); used only when its energy is lower than the plain guess (previous equilibrium
+  /// with the new fixed values).
+  bool extrapolate = true;
+};
+
+struct ContinuationSummary {
+  bool completed = false;   ///< every step converged
+  int steps_completed = 0;  ///< converged steps
+  int failed_step = -1;     ///< first step that did not converge, −1 if none
+  int total_newton_iterations = 0;
+  int extrapolations_used = 0;            ///< steps started from the extrapolated guess
+  std::vector<EquilibriumSummary> steps;  ///< one per attempted step
+  double wall_time_s = 0;
+  std::string message;
+};
+
+class EquilibriumSolver {
+ public:
+  using SparseMatrix = Eigen::SparseMatrix<double>;
+  /// Sets the fixed dofs of q (and anything else, e.g. gravity) for load step `step`.
+  using LoadStepFunction = std::function<void(int step, Eigen::VectorXd* q)>;
+  /// Called after each converged step with the equilibrium and its summary.
+  using StepObserver =
+      std::function<void(int step, const Eigen::VectorXd& q, const EquilibriumSummary& summary)>;
+
+  /// `discretization` must outlive the solver; its parameters and gravity may change between
+  /// solves (its Hessian pattern may not). `fixed_dofs` index q (see
+  /// ConstrainedDofs::node_dofs to hold whole nodes). Throws std::invalid_argument for invalid
+  /// options or dofs out of range.
+  EquilibriumSolver(const Discretization& discretization, std::vector<int> fixed_dofs,
+                    const EquilibriumOptions& options = {});
+
+  /// Minimises Ψ over the free dofs of *q (#dofs), starting from *q; on return *q is the last
+  /// iterate (the equilibrium when converged). Fixed entries are never written.
+  EquilibriumSummary solve(Eigen::VectorXd* q);
+
+  /// Solves one equilibrium per load step 0 … num_steps−1, each starting from the previous
+  /// one (see ContinuationOptions); `apply_step` sets the step's fixed dofs in *q. Stops at
+  /// the first step that does not converge (failed_step, message), leaving *q at its last
+  /// iterate. The observer (optional) sees each converged step.
+  ContinuationSummary solve_continuation(int num_steps, const LoadStepFunction& apply_step,
+                                         Eigen::VectorXd* q, const StepObserver& observer = {},
+                                         const ContinuationOptions& options = {});
+
+  const EquilibriumOptions& options() const { return options_; }
+  const ConstrainedDofs& dofs() const { return dofs_; }
+  const Discretization& discretization() const { return discretization_; }
+  /// L used by the decrement test [m].
+  double length_scale_m() const { return length_scale_m_; }
+
+  // Results of the last solve() ------------------------------------------------------------
+  /// True when the last solve converged: the factor of K_ff at the returned q is available.
+  bool has_solution_factorization() const { return factor_at_solution_; }
+  /// The factor of K_ff at the solution (std::logic_error if !has_solution_factorization()).
+  const SparseCholesky& factorization() const;
+  /// Solves K_ff X = B (#free × m right-hand sides), reusing the factor at the solution, with
+  /// the configured iterative refinement (paper Eq. 6: B = −∂g_f/∂k gives ∂q_f/∂k).
+  void solve_free_free(const Eigen::MatrixXd& b, Eigen::MatrixXd* x,
+                       SolveReport* report = nullptr) const;
+  /// K_ff (#free × #free) and K_fc (#free × #fixed) at the solution [N/m]
+  /// (std::logic_error if !has_solution_factorization()).
+  const SparseMatrix& free_free_hessian() const;
+  const SparseMatrix& free_fixed_hessian() const;
+  /// ∂Ψ/∂q (#dofs) [N] at the q returned by the last solve.
+  const Eigen::VectorXd& gradient() const { return gradient_; }
+  /// ∂Ψ/∂q at the fixed dofs (#fixed, in dofs().fixed_dofs() order) [N]: the force each
+  /// support applies to the cloth (the cloth pulls the support with the opposite force);
+  /// discretization.hpp explains the tensile-tester sign.
+  Eigen::VectorXd reaction() const;
+
+ private:
+  double evaluate(const Eigen::VectorXd& q, Eigen::VectorXd* gradient, SparseMatrix* hessian,
+                  EquilibriumSummary* summary) const;
+  void prepare_patterns();
+  double automatic_time_step() const;
+  double force_scale() const;
+  // Backtracking Armijo search on Φ(α) = Ψ(q + αd) + quadratic·α² from Ψ(q) = psi with
+  // slope g_fᵀd < 0; on success q, psi, gradient_ and hessian_ are at the accepted point and
+  // *alpha is the step length.
+  bool line_search(Eigen::VectorXd* q, double* psi, double slope, double quadratic,
+                   bool allow_roundoff_acceptance, double* alpha, EquilibriumSummary* summary);
+  bool backward_euler(Eigen::VectorXd* q, double* psi, double* time_step_s,
+                      EquilibriumSummary* summary);
+
+  const Discretization& discretization_;
+  EquilibriumOptions options_;
+  ConstrainedDofs dofs_;
+  SparseCholesky cholesky_;
+  double length_scale_m_ = 1.0;
+
+  bool patterns_ready_ = false;
+  bool factor_at_solution_ = false;
+  bool hessian_at_q_ = false;  // gradient_ and hessian_ belong to the current iterate
+
+  // Work buffers, sized once per pattern.
+  SparseMatrix hessian_, k_ff_, k_fc_, k_shifted_;
+  Eigen::VectorXd gradient_, trial_gradient_, q_trial_;
+  Eigen::VectorXd g_f_, g_c_, direction_, mass_f_;
+};
+
+}  // namespace twill

@@ -1,0 +1,575 @@
+#include "discretizations/catmull_clark_kl/catmull_clark_kl.hpp"
+
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <functional>
+#include <numbers>
+#include <sstream>
+#include <stdexcept>
+#include <utility>
+
+#include "core/input_error.hpp"
+#include "discretizations/catmull_clark_kl/kirchhoff_love_kernel.hpp"
+
+namespace twill {
+namespace {
+
+using BasisTable = Eigen::Matrix<double, 6, 16>;  // rows as PatchBasis::weights
+using FaceCoordinates = Eigen::Matrix<double, 16, 3>;
+using Matrix16 = Eigen::Matrix<double, 16, 16>;
+constexpr int kSlotsPerFace = 16 * 16 * 3;
+
+/// (key, message) of the first invalid option; key empty when all are valid.
+std::pair<std::string, std::string> first_invalid_option(const CatmullClarkKLOptions& o) {
+  auto bad = [](const char* key, const std::string& rule, int value) {
+    return std::pair<std::string, std::string>(
+        key, std::string(key) + " must be " + rule + ", got " + std::to_string(value));
+  };
+  if (o.gauss_points_per_direction < 1 || o.gauss_points_per_direction > 16)
+    return bad("gauss_points_per_direction", "in [1, 16]", o.gauss_points_per_direction);
+  // One point (the mid-surface) would drop the bending energy entirely.
+  if (o.thickness_points < 2 || o.thickness_points > 64)
+    return bad("thickness_points", "in [2, 64] (one point loses all bending)", o.thickness_points);
+  if (o.threads < 0) return bad("threads", ">= 0 (0 = TBB's choice)", o.threads);
+  if (o.surface_samples_per_face < 1 || o.surface_samples_per_face > 64)
+    return bad("surface_samples_per_face", "in [1, 64]", o.surface_samples_per_face);
+  return {};
+}
+
+void validate_strip(const StripSpec& strip) {
+  auto fail = [](const char* key, const std::string& message) {
+    throw InputError(InputLocation{"", 0, key}, message);
+  };
+  if (!(std::isfinite(strip.length_m) && strip.length_m > 0))
+    fail("length_m", "strip length must be positive, got " + std::to_string(strip.length_m));
+  if (!(std::isfinite(strip.width_m) && strip.width_m > 0))
+    fail("width_m", "strip width must be positive, got " + std::to_string(strip.width_m));
+  if (strip.cells_along < 1)
+    fail("cells_along", "needs at least 1 cell, got " + std::to_string(strip.cells_along));
+  if (strip.cells_across < 1)
+    fail("cells_across", "needs at least 1 cell, got " + std::to_string(strip.cells_across));
+  if (!std::isfinite(strip.angle_deg)) fail("angle_deg", "material angle must be finite");
+}
+
+void validate_parameters(const MaterialParameters& p) {
+  if (!(std::isfinite(p.thickness_m) && p.thickness_m > 0))
+    throw InputError(InputLocation{"", 0, "thickness_m"},
+                     "thickness must be positive, got " + std::to_string(p.thickness_m));
+  if (!std::isfinite(p.density_kg_m2))
+    throw InputError(InputLocation{"", 0, "density_kg_m2"}, "density must be finite");
+}
+
+/// Index of the pair (a, b), a ≤ b, among the 6 upper-triangle component blocks.
+constexpr int pair_index(int a, int b) { return a == 0 ? b : (a == 1 ? 2 + b : 5); }
+
+/// Surface jet y = (a1, a2, x,11, x,22, x,12) from a basis table and face control points.
+SurfaceJet jet_of(const BasisTable& table, const FaceCoordinates& X) {
+  SurfaceJet y;
+  Eigen::Map<Eigen::Matrix<double, 5, 3, Eigen::RowMajor>>(y.data()) = table.bottomRows<5>() * X;
+  return y;
+}
+
+}  // namespace
+
+std::string CatmullClarkKLOptions::validate() const { return first_invalid_option(*this).second; }
+
+struct CatmullClarkKL::Mesh {
+  int points_per_face = 0;
+  std::vector<Eigen::Vector2d> gauss_uv;        // per point of a face
+  std::vector<BasisTable> basis_tables;         // [table · points_per_face + point]
+  std::vector<int> face_table;                  // per face
+  std::vector<std::array<int, 16>> face_nodes;  // per face
+  std::vector<ReferencePoint> reference;        // [face · points_per_face + point]
+  /// Reference (x, y) = c0 + u c1 + v c2 on each face (its affine parametrisation).
+  std::vector<Eigen::Matrix<double, 2, 3>> face_affine;
+  Eigen::VectorXd node_area;  // ∫ N_i dA per node [m²]
+  // Hessian pattern (CSC, both triangles) and per face the position of entry
+  // (3 nodes[i], 3 nodes[j] + b) at [face · kSlotsPerFace + (16 i + j) · 3 + b]; rows
+  // 3 nodes[i] + 1, + 2 follow it directly.
+  std::vector<int> hessian_outer, hessian_inner;
+  std::vector<int> block_slots;
+  std::vector<std::vector<int>> colours;  // faces of one colour share no node
+
+  std::size_t bytes() const {
+    std::size_t total = gauss_uv.capacity() * sizeof(Eigen::Vector2d) +
+                        basis_tables.capacity() * sizeof(BasisTable) +
+                        face_table.capacity() * sizeof(int) +
+                        face_nodes.capacity() * sizeof(std::array<int, 16>) +
+                        reference.capacity() * sizeof(ReferencePoint) +
+                        face_affine.capacity() * sizeof(Eigen::Matrix<double, 2, 3>) +
+                        static_cast<std::size_t>(node_area.size()) * sizeof(double) +
+                        (hessian_outer.capacity() + hessian_inner.capacity() +
+                         block_slots.capacity()) * sizeof(int);
+    for (const auto& c : colours) total += c.capacity() * sizeof(int);
+    return total;
+  }
+};
+
+namespace {
+
+/// Runs `body(face, outputs)` for every face, in parallel; the body scatter-adds into the
+/// output arrays `targets` (pointer, length). Colouring: faces of one colour run
+/// concurrently and write straight into the targets (they touch disjoint entries). Thread
+/// local: each thread adds into private zeroed copies, summed into the targets at the end.
+using FaceBody = std::function<void(int face, double* const* outputs)>;
+
+void for_each_face(const std::vector<std::vector<int>>& colours, int num_faces,
+                   CatmullClarkKLOptions::Assembly assembly, int threads,
+                   const std::vector<std::pair<double*, std::size_t>>& targets,
+                   const FaceBody& body) {
+  tbb::task_arena arena(threads > 0 ? threads : tbb::task_arena::automatic);
+  arena.execute([&] {
+    if (assembly == CatmullClarkKLOptions::Assembly::Colouring) {
+      std::vector<double*> outputs;
+      for (const auto& t : targets) outputs.push_back(t.first);
+      for (const std::vector<int>& colour : colours)
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, colour.size()),
+                          [&](const tbb::blocked_range<std::size_t>& range) {
+                            for (std::size_t k = range.begin(); k != range.end(); ++k)
+                              body(colour[k], outputs.data());
+                          });
+      return;
+    }
+    using Buffers = std::vector<std::vector<double>>;
+    tbb::enumerable_thread_specific<Buffers> local([&] {
+      Buffers buffers;
+      for (const auto& t : targets) buffers.emplace_back(t.second, 0.0);
+      return buffers;
+    });
+    tbb::parallel_for(tbb::blocked_range<int>(0, num_faces),
+                      [&](const tbb::blocked_range<int>& range) {
+                        Buffers& buffers = local.local();
+                        std::vector<double*> outputs;
+                        for (auto& b : buffers) outputs.push_back(b.data());
+                        for (int face = range.begin(); face != range.end(); ++face)
+                          body(face, outputs.data());
+                      });
+    for (std::size_t t = 0; t < targets.size(); ++t)
+      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, targets[t].second),
+                        [&](const tbb::blocked_range<std::size_t>& range) {
+                          for (const Buffers& buffers : local)
+                            for (std::size_t i = range.begin(); i != range.end(); ++i)
+                              targets[t].first[i] += buffers[t][i];
+                        });
+  });
+}
+
+}  // namespace
+
+CatmullClarkKL::CatmullClarkKL(const StripSpec& strip, const MaterialParameters& parameters,
+                               const CatmullClarkKLOptions& options)
+    : strip_(strip), options_(options), law_(parameters) {
+  validate_strip(strip);
+  validate_parameters(parameters);
+  if (const auto [key, message] = first_invalid_option(options); !key.empty())
+    throw InputError(InputLocation{"", 0, key}, message);
+  thickness_rule_ = GaussLegendreRule::make(options.thickness_points);
+  basis_ = std::make_unique<LimitSurfaceBasis>(strip.cells_along, strip.cells_across);
+
+  const int nx = strip.cells_along, ny = strip.cells_across;
+  const int num_faces_total = basis_->num_faces();
+  rest_.resize(3 * basis_->num_nodes());
+  for (int j = 0; j <= ny; ++j)
+    for (int i = 0; i <= nx; ++i)
+      rest_.segment<3>(3 * basis_->node_index(i, j))
+          << strip.length_m * i / nx,
+          -0.5 * strip.width_m + strip.width_m * j / ny, 0.0;
+
+  // Material frame (core/discretization.hpp): d2 = weft at θ from the strip axis, d1 = warp.
+  const double theta = strip.angle_deg * std::numbers::pi / 180.0;
+  const Eigen::Vector3d d2(std::cos(theta), std::sin(theta), 0.0);
+  const Eigen::Vector3d d1(-std::sin(theta), std::cos(theta), 0.0);
+
+  auto mesh = std::make_unique<Mesh>();
+  const GaussLegendreRule face_rule = GaussLegendreRule::make(options.gauss_points_per_direction);
+  const int ng = face_rule.size();
+  mesh->points_per_face = ng * ng;
+  std::vector<double> gauss_weight;
+  for (int b = 0; b < ng; ++b)
+    for (int a = 0; a < ng; ++a) {
+      mesh->gauss_uv.emplace_back(0.5 * (1.0 + face_rule.nodes[static_cast<size_t>(a)]),
+                                  0.5 * (1.0 + face_rule.nodes[static_cast<size_t>(b)]));
+      gauss_weight.push_back(0.25 * face_rule.weights[static_cast<size_t>(a)] *
+                             face_rule.weights[static_cast<size_t>(b)]);
+    }
+
+  const int npf = mesh->points_per_face;
+  mesh->face_table.resize(static_cast<size_t>(num_faces_total));
+  mesh->face_nodes.resize(static_cast<size_t>(num_faces_total));
+  mesh->reference.resize(static_cast<size_t>(num_faces_total * npf));
+  mesh->face_affine.resize(static_cast<size_t>(num_faces_total));
+  mesh->node_area = Eigen::VectorXd::Zero(basis_->num_nodes());
+  std::vector<BasisTable> tables(static_cast<size_t>(npf));
+  for (int face = 0; face < num_faces_total; ++face) {
+    PatchBasis basis;
+    for (int p = 0; p < npf; ++p) {
+      basis = basis_->evaluate(face, mesh->gauss_uv[static_cast<size_t>(p)].x(),
+                               mesh->gauss_uv[static_cast<size_t>(p)].y());
+      tables[static_cast<size_t>(p)] = basis.weights;
+    }
+    mesh->face_nodes[static_cast<size_t>(face)] = basis.nodes;
+    // Faces of the same boundary type have bitwise identical tables: store each once.
+    int table = -1;
+    for (std::size_t t = 0; t * static_cast<size_t>(npf) < mesh->basis_tables.size() && table < 0;
+         ++t) {
+      bool same = true;
+      for (int p = 0; p < npf && same; ++p)
+        same = mesh->basis_tables[t * static_cast<size_t>(npf) + static_cast<size_t>(p)] ==
+               tables[static_cast<size_t>(p)];
+      if (same) table = static_cast<int>(t);
+    }
+    if (table < 0) {
+      table = static_cast<int>(mesh->basis_tables.size() / static_cast<size_t>(npf));
+      mesh->basis_tables.insert(mesh->basis_tables.end(), tables.begin(), tables.end());
+    }
+    mesh->face_table[static_cast<size_t>(face)] = table;
+
+    FaceCoordinates X;
+    for (int k = 0; k < 16; ++k)
+      X.row(k) = rest_.segment<3>(3 * basis.nodes[static_cast<size_t>(k)]).transpose();
+    for (int p = 0; p < npf; ++p) {
+      const BasisTable& W = tables[static_cast<size_t>(p)];
+      ReferencePoint& ref = mesh->reference[static_cast<size_t>(face * npf + p)];
+      ref = make_reference_point(jet_of(W, X), gauss_weight[static_cast<size_t>(p)], d1, d2);
+      for (int k = 0; k < 16; ++k)
+        mesh->node_area[basis.nodes[static_cast<size_t>(k)]] += ref.weight_area * W(0, k);
+    }
+    Eigen::Matrix<double, 2, 3>& affine = mesh->face_affine[static_cast<size_t>(face)];
+    const Eigen::Vector3d origin = (basis_->evaluate(face, 0, 0).weights.row(0) * X).transpose();
+    affine.col(0) = origin.head<2>();
+    affine.col(1) = (basis_->evaluate(face, 1, 0).weights.row(0) * X).transpose().head<2>() -
+                    origin.head<2>();
+    affine.col(2) = (basis_->evaluate(face, 0, 1).weights.row(0) * X).transpose().head<2>() -
+                    origin.head<2>();
+  }
+
+  // Hessian pattern: nodes i, j are coupled when some face's patch uses both.
+  const int num_nodes_total = basis_->num_nodes();
+  std::vector<std::vector<int>> neighbours(static_cast<size_t>(num_nodes_total));
+  for (const auto& nodes : mesh->face_nodes)
+    for (int a : nodes)
+      for (int b : nodes) neighbours[static_cast<size_t>(b)].push_back(a);
+  for (auto& list : neighbours) {
+    std::sort(list.begin(), list.end());
+    list.erase(std::unique(list.begin(), list.end()), list.end());
+  }
+  mesh->hessian_outer.assign(static_cast<size_t>(3 * num_nodes_total + 1), 0);
+  for (int b = 0; b < num_nodes_total; ++b)
+    for (int c = 0; c < 3; ++c) {
+      const std::size_t column = static_cast<size_t>(3 * b + c);
+      mesh->hessian_outer[column + 1] =
+          mesh->hessian_outer[column] + 3 * static_cast<int>(neighbours[static_cast<size_t>(b)].size());
+      for (int a : neighbours[static_cast<size_t>(b)])
+        for (int r = 0; r < 3; ++r) mesh->hessian_inner.push_back(3 * a + r);
+    }
+  mesh->block_slots.resize(static_cast<size_t>(num_faces_total) * kSlotsPerFace);
+  for (int face = 0; face < num_faces_total; ++face) {
+    const auto& nodes = mesh->face_nodes[static_cast<size_t>(face)];
+    for (int i = 0; i < 16; ++i)
+      for (int j = 0; j < 16; ++j) {
+        const auto& column_nodes = neighbours[static_cast<size_t>(nodes[static_cast<size_t>(j)])];
+        const auto rank = std::lower_bound(column_nodes.begin(), column_nodes.end(),
+                                           nodes[static_cast<size_t>(i)]) -
+                          column_nodes.begin();
+        for (int c = 0; c < 3; ++c)
+          mesh->block_slots[static_cast<size_t>(face) * kSlotsPerFace +
+                            static_cast<size_t>((16 * i + j) * 3 + c)] =
+              mesh->hessian_outer[static_cast<size_t>(3 * nodes[static_cast<size_t>(j)] + c)] +
+              3 * static_cast<int>(rank);
+      }
+  }
+
+  // Greedy colouring: a face takes the lowest colour that none of its nodes has seen yet.
+  std::vector<std::uint64_t> node_colours(static_cast<size_t>(num_nodes_total), 0);
+  for (int face = 0; face < num_faces_total; ++face) {
+    std::uint64_t used = 0;
+    for (int node : mesh->face_nodes[static_cast<size_t>(face)]) used |= node_colours[static_cast<size_t>(node)];
+    int colour = 0;
+    while (colour < 64 && (used >> colour) & 1u) ++colour;
+    if (colour == 64) throw std::logic_error("CatmullClarkKL: face colouring needs > 64 colours");
+    for (int node : mesh->face_nodes[static_cast<size_t>(face)])
+      node_colours[static_cast<size_t>(node)] |= std::uint64_t{1} << colour;
+    if (static_cast<int>(mesh->colours.size()) <= colour) mesh->colours.resize(static_cast<size_t>(colour + 1));
+    mesh->colours[static_cast<size_t>(colour)].push_back(face);
+  }
+  mesh_ = std::move(mesh);
+}
+
+CatmullClarkKL::~CatmullClarkKL() = default;
+
+void CatmullClarkKL::set_parameters(const MaterialParameters& parameters) {
+  validate_parameters(parameters);
+  law_ = MaterialLaw(parameters);
+}
+
+int CatmullClarkKL::num_quadrature_points() const {
+  return num_faces() * mesh_->points_per_face;
+}
+
+std::size_t CatmullClarkKL::precomputation_bytes() const { return mesh_->bytes(); }
+
+void CatmullClarkKL::check_positions(const Eigen::VectorXd& q, const char* caller) const {
+  if (q.size() != num_dofs())
+    throw std::invalid_argument(std::string("CatmullClarkKL::") + caller + ": q has " +
+                                std::to_string(q.size()) + " entries, the mesh has " +
+                                std::to_string(num_dofs()) + " dofs");
+}
+
+double CatmullClarkKL::energy(const Eigen::VectorXd& q, Eigen::VectorXd* gradient,
+                              SparseMatrix* hessian) const {
+  check_positions(q, "energy");
+  const Mesh& mesh = *mesh_;
+  const int n = num_dofs();
+  const std::size_t nnz = mesh.hessian_inner.size();
+  if (gradient) gradient->setZero(n);
+  if (hessian) {
+    // Keep the caller's matrix when it already has this pattern: values only, no allocation.
+    const bool same_pattern =
+        hessian->rows() == n && hessian->cols() == n && hessian->isCompressed() &&
+        static_cast<std::size_t>(hessian->nonZeros()) == nnz &&
+        std::equal(mesh.hessian_outer.begin(), mesh.hessian_outer.end(),
+                   hessian->outerIndexPtr()) &&
+        std::equal(mesh.hessian_inner.begin(), mesh.hessian_inner.end(),
+                   hessian->innerIndexPtr());
+    if (!same_pattern) {
+      hessian->resize(n, n);
+      hessian->resizeNonZeros(static_cast<Eigen::Index>(nnz));
+      std::copy(mesh.hessian_outer.begin(), mesh.hessian_outer.end(), hessian->outerIndexPtr());
+      std::copy(mesh.hessian_inner.begin(), mesh.hessian_inner.end(), hessian->innerIndexPtr());
+    }
+    std::fill(hessian->valuePtr(), hessian->valuePtr() + nnz, 0.0);
+  }
+
+  std::vector<double> face_energy(static_cast<size_t>(num_faces()), 0.0);
+  std::vector<std::pair<double*, std::size_t>> targets;
+  if (gradient) targets.emplace_back(gradient->data(), static_cast<std::size_t>(n));
+  if (hessian) targets.emplace_back(hessian->valuePtr(), nnz);
+  const int npf = mesh.points_per_face;
+  const double tau = law_.parameters().thickness_m;
+
+  const FaceBody body = [&](int face, double* const* outputs) {
+    const auto& nodes = mesh.face_nodes[static_cast<size_t>(face)];
+    FaceCoordinates X;
+    for (int k = 0; k < 16; ++k) X.row(k) = q.segment<3>(3 * nodes[static_cast<size_t>(k)]).transpose();
+    FaceCoordinates face_gradient = FaceCoordinates::Zero();
+    std::array<Matrix16, 6> blocks;  // (a, b) component blocks, a ≤ b, of the 48×48 Hessian
+    if (hessian)
+      for (auto& block : blocks) block.setZero();
+    Vector15 gy;
+    Matrix15 Hy;
+    double E = 0.0;
+    for (int p = 0; p < npf; ++p) {
+      const BasisTable& W =
+          mesh.basis_tables[static_cast<size_t>(mesh.face_table[static_cast<size_t>(face)] * npf + p)];
+      const ReferencePoint& ref = mesh.reference[static_cast<size_t>(face * npf + p)];
+      E += kirchhoff_love_point(law_, tau, thickness_rule_, ref, jet_of(W, X),
+                                gradient ? &gy : nullptr, hessian ? &Hy : nullptr);
+      const auto Dy = W.bottomRows<5>();  // ∂y/∂(control point): y = kron(Dy, I3) x
+      if (gradient)
+        face_gradient.noalias() +=
+            Dy.transpose() * Eigen::Map<const Eigen::Matrix<double, 5, 3, Eigen::RowMajor>>(gy.data());
+      if (hessian)
+        for (int a = 0; a < 3; ++a)
+          for (int b = a; b < 3; ++b) {
+            // H_ab(r, s) = Hy(3r + a, 3s + b): the (a, b) component coupling of jet rows r, s.
+            const Eigen::Map<const Eigen::Matrix<double, 5, 5>, 0, Eigen::Stride<45, 3>> Hab(
+                Hy.data() + 15 * b + a);
+            blocks[static_cast<size_t>(pair_index(a, b))].noalias() +=
+                Dy.transpose() * (Hab * Dy);
+          }
+    }
+    face_energy[static_cast<size_t>(face)] = E;
+    int out = 0;
+    if (gradient) {
+      double* g = outputs[out++];
+      for (int k = 0; k < 16; ++k)
+        for (int c = 0; c < 3; ++c) g[3 * nodes[static_cast<size_t>(k)] + c] += face_gradient(k, c);
+    }
+    if (hessian) {
+      double* values = outputs[out++];
+      const int* slots = mesh.block_slots.data() + static_cast<std::size_t>(face) * kSlotsPerFace;
+      for (int i = 0; i < 16; ++i)
+        for (int j = 0; j < 16; ++j)
+          for (int b = 0; b < 3; ++b) {
+            double* column = values + slots[(16 * i + j) * 3 + b];
+            for (int a = 0; a < 3; ++a)
+              column[a] += a <= b ? blocks[static_cast<size_t>(pair_index(a, b))](i, j)
+                                  : blocks[static_cast<size_t>(pair_index(b, a))](j, i);
+          }
+    }
+  };
+  for_each_face(mesh.colours, num_faces(), options_.assembly, options_.threads, targets, body);
+
+  double total = 0.0;
+  for (double e : face_energy) total += e;  // serial sum: deterministic
+  // Gravity: Ψ_g = −ρ_A Σ_i (∫N_i dA) g·x_i, exact since x is linear in q.
+  const double rho = law_.parameters().density_kg_m2;
+  if (gravity_.squaredNorm() > 0)
+    for (int i = 0; i < num_nodes(); ++i) {
+      const double m = rho * mesh.node_area[i];
+      total -= m * gravity_.dot(q.segment<3>(3 * i));
+      if (gradient) gradient->segment<3>(3 * i) -= m * gravity_;
+    }
+  return total;
+}
+
+void CatmullClarkKL::gradient_parameter_jacobian(const Eigen::VectorXd& q,
+                                                 Eigen::MatrixXd* dgradient_dk) const {
+  check_positions(q, "gradient_parameter_jacobian");
+  if (!dgradient_dk) throw std::invalid_argument("gradient_parameter_jacobian: null output");
+  const Mesh& mesh = *mesh_;
+  const int n = num_dofs();
+  const int num_k = law_.num_parameters();
+  dgradient_dk->setZero(n, num_k);
+  const int npf = mesh.points_per_face;
+  const double tau = law_.parameters().thickness_m;
+  std::vector<std::pair<double*, std::size_t>> targets = {
+      {dgradient_dk->data(), static_cast<std::size_t>(n) * static_cast<std::size_t>(num_k)}};
+
+  const FaceBody body = [&](int face, double* const* outputs) {
+    const auto& nodes = mesh.face_nodes[static_cast<size_t>(face)];
+    FaceCoordinates X;
+    for (int k = 0; k < 16; ++k) X.row(k) = q.segment<3>(3 * nodes[static_cast<size_t>(k)]).transpose();
+    Eigen::MatrixXd local = Eigen::MatrixXd::Zero(48, num_k);  // rows 16 c + k: node k, comp c
+    JetParameterJacobian Jy;
+    for (int p = 0; p < npf; ++p) {
+      const BasisTable& W =
+          mesh.basis_tables[static_cast<size_t>(mesh.face_table[static_cast<size_t>(face)] * npf + p)];
+      const ReferencePoint& ref = mesh.reference[static_cast<size_t>(face * npf + p)];
+      kirchhoff_love_point_parameter_jacobian(law_, tau, thickness_rule_, ref, jet_of(W, X), &Jy);
+      const auto Dy = W.bottomRows<5>();
+      for (int c = 0; c < 3; ++c) {
+        // Rows 3r + c of Jy: component c of jet row r.
+        const Eigen::Map<const Eigen::MatrixXd, 0, Eigen::Stride<Eigen::Dynamic, 3>> Jc(
+            Jy.data() + c, 5, num_k, Eigen::Stride<Eigen::Dynamic, 3>(15, 3));
+        local.middleRows<16>(16 * c).noalias() += Dy.transpose() * Jc;
+      }
+    }
+    double* out = outputs[0];
+    for (int col = 0; col < num_k; ++col)
+      for (int c = 0; c < 3; ++c)
+        for (int k = 0; k < 16; ++k)
+          out[static_cast<std::size_t>(col) * static_cast<std::size_t>(n) +
+              static_cast<std::size_t>(3 * nodes[static_cast<size_t>(k)] + c)] += local(16 * c + k, col);
+  };
+  for_each_face(mesh.colours, num_faces(), options_.assembly, options_.threads, targets, body);
+
+  // Density enters through gravity only: ∂g_i/∂ρ_A = −(∫N_i dA) g.
+  for (int i = 0; i < num_nodes(); ++i)
+    dgradient_dk->block<3, 1>(3 * i, FlatLayout::kDensity) = -mesh.node_area[i] * gravity_;
+}
+
+std::vector<int> CatmullClarkKL::clamped_nodes(StripEnd end, bool clamp_slope) const {
+  const int nx = strip_.cells_along, ny = strip_.cells_across;
+  std::vector<int> rows = {end == StripEnd::Start ? 0 : nx};
+  if (clamp_slope) rows.push_back(end == StripEnd::Start ? std::min(1, nx) : std::max(nx - 1, 0));
+  std::vector<int> nodes;
+  for (int i : rows)
+    for (int j = 0; j <= ny; ++j) nodes.push_back(basis_->node_index(i, j));
+  std::sort(nodes.begin(), nodes.end());
+  nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
+  return nodes;
+}
+
+SparseMatrix CatmullClarkKL::point_evaluation(const std::vector<Eigen::Vector2d>& points) const {
+  const int nx = strip_.cells_along, ny = strip_.cells_across;
+  const double L = strip_.length_m, Wd = strip_.width_m;
+  const double tolerance = 1e-9 * std::max(L, Wd);
+  std::vector<Eigen::Triplet<double>> triplets;
+  triplets.reserve(points.size() * 48);
+  for (std::size_t k = 0; k < points.size(); ++k) {
+    const Eigen::Vector2d& point = points[k];
+    if (!(point.x() >= -tolerance && point.x() <= L + tolerance &&
+          std::abs(point.y()) <= 0.5 * Wd + tolerance)) {
+      std::ostringstream message;
+      message << "point (" << point.x() << ", " << point.y() << ") m is outside the strip [0, "
+              << L << "] x [" << -0.5 * Wd << ", " << 0.5 * Wd << "]";
+      throw InputError(InputLocation{"", 0, "points[" + std::to_string(k) + "]"}, message.str());
+    }
+    const int i = std::clamp(static_cast<int>(std::floor(point.x() / L * nx)), 0, nx - 1);
+    const int j = std::clamp(static_cast<int>(std::floor((point.y() + 0.5 * Wd) / Wd * ny)), 0, ny - 1);
+    const int face = basis_->face_index(i, j);
+    const Eigen::Matrix<double, 2, 3>& affine = mesh_->face_affine[static_cast<size_t>(face)];
+    const Eigen::Vector2d uv =
+        affine.rightCols<2>().partialPivLu().solve(point - affine.col(0)).cwiseMax(0.0).cwiseMin(1.0);
+    const PatchBasis basis = basis_->evaluate(face, uv.x(), uv.y());
+    for (int m = 0; m < 16; ++m)
+      for (int c = 0; c < 3; ++c)
+        triplets.emplace_back(static_cast<int>(3 * k) + c, 3 * basis.nodes[static_cast<size_t>(m)] + c,
+                              basis.weights(0, m));
+  }
+  SparseMatrix P(3 * static_cast<Eigen::Index>(points.size()), num_dofs());
+  P.setFromTriplets(triplets.begin(), triplets.end());
+  P.prune(0.0);  // phantom slots of boundary patches carry exact zeros
+  return P;
+}
+
+Eigen::VectorXd CatmullClarkKL::lumped_mass() const {
+  Eigen::VectorXd mass(num_dofs());
+  const double rho = law_.parameters().density_kg_m2;
+  for (int i = 0; i < num_nodes(); ++i) mass.segment<3>(3 * i).setConstant(rho * mesh_->node_area[i]);
+  return mass;
+}
+
+void CatmullClarkKL::surface_mesh(const Eigen::VectorXd& q, Eigen::MatrixXd* vertices,
+                                  Eigen::MatrixXi* faces) const {
+  check_positions(q, "surface_mesh");
+  const int s = options_.surface_samples_per_face;
+  const int cols = strip_.cells_along * s, rows = strip_.cells_across * s;
+  std::vector<Eigen::Vector2d> samples;
+  samples.reserve(static_cast<size_t>((cols + 1) * (rows + 1)));
+  for (int b = 0; b <= rows; ++b)
+    for (int a = 0; a <= cols; ++a)
+      samples.emplace_back(strip_.length_m * a / cols,
+                           -0.5 * strip_.width_m + strip_.width_m * b / rows);
+  if (vertices) {
+    const Eigen::VectorXd positions = point_evaluation(samples) * q;
+    *vertices = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>(
+        positions.data(), static_cast<Eigen::Index>(samples.size()), 3);
+  }
+  if (faces) {
+    faces->resize(2 * cols * rows, 3);
+    int t = 0;
+    for (int b = 0; b < rows; ++b)
+      for (int a = 0; a < cols; ++a) {
+        const int v00 = b * (cols + 1) + a, v10 = v00 + 1, v01 = v00 + cols + 1, v11 = v01 + 1;
+        faces->row(t++) << v00, v10, v11;
+        faces->row(t++) << v00, v11, v01;
+      }
+  }
+}
+
+std::vector<CatmullClarkKL::PointStrain> CatmullClarkKL::quadrature_strains(
+    const Eigen::VectorXd& q) const {
+  check_positions(q, "quadrature_strains");
+  const Mesh& mesh = *mesh_;
+  const int npf = mesh.points_per_face;
+  std::vector<PointStrain> strains;
+  strains.reserve(static_cast<size_t>(num_quadrature_points()));
+  for (int face = 0; face < num_faces(); ++face) {
+    const auto& nodes = mesh.face_nodes[static_cast<size_t>(face)];
+    FaceCoordinates X;
+    for (int k = 0; k < 16; ++k) X.row(k) = q.segment<3>(3 * nodes[static_cast<size_t>(k)]).transpose();
+    const Eigen::Matrix<double, 2, 3>& affine = mesh.face_affine[static_cast<size_t>(face)];
+    for (int p = 0; p < npf; ++p) {
+      const BasisTable& W =
+          mesh.basis_tables[static_cast<size_t>(mesh.face_table[static_cast<size_t>(face)] * npf + p)];
+      PointStrain point;
+      point.reference_point = affine.col(0) + affine.rightCols<2>() * mesh.gauss_uv[static_cast<size_t>(p)];
+      orthotropic_strains(mesh.reference[static_cast<size_t>(face * npf + p)], jet_of(W, X),
+                          &point.membrane, &point.bending);
+      strains.push_back(point);
+    }
+  }
+  return strains;
+}
+
+}  // namespace twill

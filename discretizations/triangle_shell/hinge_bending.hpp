@@ -1,0 +1,119 @@
+#pragma once
+// Discrete-shell hinge bending (Grinspun, Hirani, Desbrun & Schröder 2003, "Discrete
+// shells"), made orthotropic by a per-hinge-class stiffness derived from the law's
+// small-strain stiffnesses (docs/triangle_shell.md §3–4).
+//
+// Hinge energy, flat rest state (θ̄ = 0):
+//     W_e = k_c(e) · g_e · θ_e²,     g_e = |ē|² / Ā_e,   Ā_e = (Ā1 + Ā2)/3        [J]
+// with |ē| the reference edge length and Ā1, Ā2 the reference areas of its two triangles
+// (Grinspun et al.'s |ē|/h̄_e with h̄_e a sixth of the summed heights), θ_e the dihedral
+// angle and k_c [J] the stiffness of the hinge's class c.
+//
+// Orthotropy: for a small uniform curvature K (2×2, reference frame), θ_e ≈ ℓ_e : K, with
+// ℓ_e the hinge's "mode" fixed by its reference stencil (hinge_reference()). The hinges of a
+// strip pattern fall into a few classes of equal mode (three for each regular pattern). The
+// class stiffnesses are solved so that the homogenised hinge energy of a cylinder,
+// Σ_c k_c (vec K)ᵀ S_c (vec K) per unit area, equals the Kirchhoff–Love bending energy
+//     W_b = τ³/24 · ẽᵀ C ẽ,   ẽ = (K̃11, K̃22, K̃12),   C = ∂²ψ/∂ẽ²(0)
+// (model.md §6: a11, a12, a22 and 2·G12 on the diagonal, since ψ has G12·Ẽ12²) for a
+// cylinder bent along warp, along weft and at 45° between them (HingeCalibration).
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "core/parameters.hpp"
+
+namespace twill {
+
+struct StripTriangulation;
+
+using Vector12 = Eigen::Matrix<double, 12, 1>;
+using Matrix12 = Eigen::Matrix<double, 12, 12>;
+
+/// Signed dihedral angle θ ∈ (−π, π] of the hinge with edge x0→x1, triangle A = (x0, x1, x2)
+/// and triangle B = (x1, x0, x3): θ = atan2((nA × nB)·ê, nA·nB), nA = (x1−x0)×(x2−x0),
+/// nB = (x3−x0)×(x1−x0), ê = (x1−x0)/|x1−x0|. θ = 0 when flat; θ < 0 when the apexes x2, x3
+/// lie on the side of the common normal (a valley seen from +n). atan2 keeps it accurate for
+/// every angle (no acos near 0 or π).
+/// Optional gradient (12, stacked x0 x1 x2 x3) and Hessian (12×12, symmetric): the exact
+/// derivatives, in the form of Bridson, Marino & Fedkiw 2003 (gradient) and Tamstorf &
+/// Grinspun 2013 "Discrete bending forces and their Jacobians" (Hessian), written as
+///   ∂θ/∂x2 = −|e| nA/|nA|²,  ∂θ/∂x3 = −|e| nB/|nB|²,
+///   ∂θ/∂x0 = ((x1−x2)·ê) nA/|nA|² + ((x1−x3)·ê) nB/|nB|²,
+///   ∂θ/∂x1 = ((x2−x0)·ê) nA/|nA|² + ((x3−x0)·ê) nB/|nB|²,
+/// and differentiated once more term by term (docs/triangle_shell.md §3).
+double dihedral_angle(const Eigen::Vector3d& x0, const Eigen::Vector3d& x1,
+                      const Eigen::Vector3d& x2, const Eigen::Vector3d& x3,
+                      Vector12* gradient = nullptr, Matrix12* hessian = nullptr);
+
+/// Reference data of one hinge from its flat stencil X0…X3 (same order as dihedral_angle).
+struct HingeReference {
+  double weight = 0;     ///< g_e = |ē|²/Ā_e (dimensionless)
+  /// ℓ_e as the 3-vector (ℓ11, ℓ22, √2·ℓ12) [m], so θ_e ≈ mode · vec(K) with
+  /// vec(K) = (K11, K22, √2·K12) for a small uniform curvature K [1/m] (Frobenius-isometric).
+  Eigen::Vector3d mode = Eigen::Vector3d::Zero();
+};
+HingeReference hinge_reference(const Eigen::Vector2d& X0, const Eigen::Vector2d& X1,
+                               const Eigen::Vector2d& X2, const Eigen::Vector2d& X3);
+
+/// Number of calibration cylinders and their order: bending along warp d1, along weft d2,
+/// along (d1 + d2)/√2 and along (d1 − d2)/√2 ("along u": the curvature is u⊗u/R).
+inline constexpr int kCalibrationCylinders = 4;
+std::vector<std::string> calibration_cylinder_names();  // "warp", "weft", "+45", "-45"
+
+/// Class stiffnesses and their derivatives (HingeCalibration::solve()).
+struct HingeClassStiffness {
+  Eigen::VectorXd stiffness;  ///< k_c per class [J]
+  /// ∂k_c/∂(a11, a12, a22, G12, τ): #classes × 5 [J/Pa, J/Pa, J/Pa, J/Pa, J/m].
+  Eigen::Matrix<double, Eigen::Dynamic, 5> derivative;
+  /// true: warp, weft and one of ±45° are matched exactly (in the continuum limit);
+  /// false: the pattern cannot, and the stiffnesses are the non-negative least-squares fit
+  /// of all four cylinders in relative error.
+  bool exact = false;
+  /// Continuum-limit relative error (hinge − KL)/KL per calibration cylinder.
+  Eigen::Vector4d relative_error = Eigen::Vector4d::Zero();
+};
+
+/// The homogenised hinge response of a mesh pattern and the solve for k_c.
+///
+/// class_response[c] = S_c: hinge energy per unit area of class c per unit stiffness as a
+/// quadratic form in vec(K) (3×3) [1/m² · m² = dimensionless per m² of K]: a class with n_c
+/// hinges per cell of area A_cell has S_c = n_c/A_cell · mean_{e∈c} g_e ℓ_e ℓ_eᵀ.
+/// `angle_deg` is the strip's material angle (core/discretization.hpp).
+class HingeCalibration {
+ public:
+  HingeCalibration(std::vector<Eigen::Matrix3d> class_response, double angle_deg);
+
+  int num_classes() const { return static_cast<int>(response_.size()); }
+  /// Kirchhoff–Love energy per unit area of each calibration cylinder at unit curvature,
+  /// τ³/24 ẽᵀCẽ [J/m² · m²], and its derivatives in (a11, a12, a22, G12, τ) (4 × 5).
+  Eigen::Vector4d kirchhoff_love_targets(const MaterialParameters& p,
+                                         Eigen::Matrix<double, 4, 5>* derivative) const;
+  /// Hinge energy per unit area of each calibration cylinder at unit curvature per unit
+  /// class stiffness (4 × #classes).
+  const Eigen::MatrixXd& cylinder_response() const { return cylinder_response_; }
+  /// Solves for the class stiffnesses (see HingeClassStiffness).
+  HingeClassStiffness solve(const MaterialParameters& p) const;
+
+ private:
+  std::vector<Eigen::Matrix3d> response_;
+  Eigen::Matrix<double, 4, 3> cylinder_strain_;  ///< per cylinder ẽ = (ũ1², ũ2², ũ1ũ2)
+  Eigen::MatrixXd cylinder_response_;            ///< 4 × #classes
+};
+
+/// The hinges of a strip triangulation grouped by mode, with each class's homogenised
+/// response S_c (the input of HingeCalibration).
+struct HingeClasses {
+  std::vector<int> class_of_hinge;        ///< per hinge of the triangulation
+  std::vector<Eigen::Matrix3d> response;  ///< S_c per class
+  std::vector<int> hinges_per_cell;       ///< n_c: class-c hinges per cell of the pattern
+};
+
+/// Classes are the distinct modes (up to sign) of the *unperturbed* pattern (base_xy); the
+/// hinge density n_c/A_cell comes from a 4 × 4-cell patch of that pattern (every pattern has
+/// period ≤ 2 cells), and the mean of g_e ℓ_e ℓ_eᵀ is taken over the hinges of the actual
+/// reference mesh, so for the irregular pattern S_c is the homogenised response of the
+/// perturbed hinges (docs/triangle_shell.md §4).
+HingeClasses classify_hinges(const StripTriangulation& triangulation);
+
+}  // namespace twill

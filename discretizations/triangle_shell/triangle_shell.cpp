@@ -1,0 +1,556 @@
+#include "discretizations/triangle_shell/triangle_shell.hpp"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <Eigen/LU>
+#include <Eigen/SparseCore>
+#include <algorithm>
+#include <array>
+#include <cassert>
+#include <cmath>
+#include <cstdint>
+#include <numbers>
+#include <sstream>
+
+#include "core/config.hpp"
+#include "core/input_error.hpp"
+#include "discretizations/triangle_shell/constant_strain_triangle.hpp"
+#include "discretizations/triangle_shell/strip_triangulation.hpp"
+
+namespace twill {
+
+std::string TriangleShellOptions::validate() const {
+  std::ostringstream os;
+  if (!(perturbation >= 0.0 && perturbation < 0.25)) {
+    os << "perturbation = " << perturbation
+       << " is outside [0, 0.25): offsets of a quarter cell can invert triangles";
+    return os.str();
+  }
+  if (threads < 0) {
+    os << "threads = " << threads << " must be >= 0 (0 = TBB's choice)";
+    return os.str();
+  }
+  return {};
+}
+
+OptionSchema triangle_shell_option_schema() {
+  const TriangleShellOptions d;
+  OptionSchema schema;
+  std::vector<std::string> names;
+  for (TrianglePattern p : all_triangle_patterns()) names.push_back(to_string(p));
+  schema.add_string("pattern", to_string(d.pattern), "how each cell is split into triangles")
+      .choices(names);
+  schema
+      .add_double("perturbation", d.perturbation,
+                  "irregular pattern: largest vertex offset as a fraction of the cell size")
+      .at_least(0.0)
+      .less_than(0.25);
+  schema.add_int("seed", static_cast<std::int64_t>(d.seed), "irregular pattern: random seed")
+      .at_least(0);
+  schema.add_int("threads", d.threads, "assembly threads (0 = TBB's choice, 1 = serial)").at_least(0);
+  return schema;
+}
+
+TriangleShellOptions triangle_shell_options(const Options& resolved) {
+  TriangleShellOptions o;
+  o.pattern = triangle_pattern_from_string(resolved.get_string("pattern"));
+  o.perturbation = resolved.get_double("perturbation");
+  o.seed = static_cast<std::uint64_t>(resolved.get_int("seed"));
+  o.threads = static_cast<int>(resolved.get_int("threads"));
+  return o;
+}
+
+namespace {
+
+// A colour class is assembled in parallel only when it has this many elements: below it, TBB's
+// scheduling costs more than the work (measured: 16×24 alternating, ~180 hinges per class).
+constexpr size_t kParallelMinimum = 256;
+
+constexpr int kTriangleBlockOffsets = 3 * 3 * 3;  // (a, b, column s) per triangle
+constexpr int kHingeBlockOffsets = 4 * 4 * 3;     // per hinge
+
+/// The field named at the start of a validation message ("perturbation = …" → "perturbation").
+std::string leading_field(const std::string& message) {
+  return message.substr(0, message.find(' '));
+}
+
+void validate_strip(const StripSpec& s) {
+  auto fail = [](const std::string& key, const std::string& what) {
+    throw InputError({"", 0, key}, what);
+  };
+  if (!(s.length_m > 0.0 && std::isfinite(s.length_m)))
+    fail("strip.length_m", "strip length must be positive, got " + std::to_string(s.length_m));
+  if (!(s.width_m > 0.0 && std::isfinite(s.width_m)))
+    fail("strip.width_m", "strip width must be positive, got " + std::to_string(s.width_m));
+  if (s.cells_along < 1)
+    fail("strip.cells_along", "need at least one cell along, got " + std::to_string(s.cells_along));
+  if (s.cells_across < 1)
+    fail("strip.cells_across",
+         "need at least one cell across, got " + std::to_string(s.cells_across));
+  if (!std::isfinite(s.angle_deg)) fail("strip.angle_deg", "material angle must be finite");
+}
+
+void validate_parameters(const MaterialParameters& p) {
+  auto fail = [](const std::string& key, const std::string& what) {
+    throw InputError({"", 0, key}, what);
+  };
+  if (!(p.thickness_m > 0.0 && std::isfinite(p.thickness_m)))
+    fail("thickness_m", "thickness must be positive, got " + std::to_string(p.thickness_m));
+  if (!(p.density_kg_m2 >= 0.0 && std::isfinite(p.density_kg_m2)))
+    fail("density_kg_m2", "density must be non-negative, got " + std::to_string(p.density_kg_m2));
+  // Bending stiffnesses are solved from a11, a22 and a12 + G12 (hinge_bending.hpp); they must
+  // describe a sheet that resists bending in every direction.
+  if (!(p.a11_Pa > 0.0)) fail("a11_Pa", "a11 must be positive, got " + std::to_string(p.a11_Pa));
+  if (!(p.a22_Pa > 0.0)) fail("a22_Pa", "a22 must be positive, got " + std::to_string(p.a22_Pa));
+  if (!(p.G12_Pa > 0.0)) fail("G12_Pa", "G12 must be positive, got " + std::to_string(p.G12_Pa));
+  const std::array<std::pair<const char*, const Curve*>, 3> curves = {
+      {{"eta1", &p.eta1}, {"eta3", &p.eta3}, {"eta4", &p.eta4}}};
+  for (const auto& [key, c] : curves)
+    if (c->degree() < 1 || c->mu.size() != c->alpha.size())
+      fail(key, std::string("curve needs as many mu as alpha values, at least one"));
+}
+
+Eigen::Vector3d vertex(const Eigen::VectorXd& q, int v) { return q.segment<3>(3 * v); }
+
+}  // namespace
+
+struct TriangleShell::Impl {
+  StripTriangulation tri;
+  std::vector<CstReference> cst;     // per face
+  std::vector<double> hinge_weight;  // g_e per hinge
+  HingeClasses classes;
+  std::unique_ptr<HingeCalibration> calibration;
+  Eigen::VectorXd vertex_area;  // Σ_{T∋i} Ā_T/3 [m²]
+
+  SparseMatrix pattern;  // Hessian sparsity, zero values
+  std::vector<std::array<int, kTriangleBlockOffsets>> tri_offsets;
+  std::vector<std::array<int, kHingeBlockOffsets>> hinge_offsets;
+  // Colour classes: triangles' classes, then hinges'; an element id < #faces is a triangle,
+  // otherwise hinge id − #faces.
+  std::vector<std::vector<int>> colours;
+
+  // Point location: triangles overlapping each cell.
+  std::vector<std::vector<int>> cell_triangles;
+
+  mutable tbb::task_arena arena;  // execute() is non-const; the arena holds no model state
+  int threads = 0;
+
+  int num_faces() const { return tri.num_faces(); }
+  int num_hinges() const { return static_cast<int>(tri.hinges.size()); }
+
+  /// Runs f(element) for every element, colour class by colour class, in parallel within a
+  /// class (serially when threads == 1).
+  template <class F>
+  void for_each_coloured(F&& f) const {
+    for (const auto& colour : colours) {
+      if (threads == 1 || colour.size() < kParallelMinimum) {
+        for (int e : colour) f(e);
+        continue;
+      }
+      arena.execute([&] {
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, colour.size(), 32),
+                          [&](const tbb::blocked_range<size_t>& r) {
+                            for (size_t k = r.begin(); k != r.end(); ++k) f(colour[k]);
+                          });
+      });
+    }
+  }
+};
+
+TriangleShell::TriangleShell(const StripSpec& strip, const MaterialParameters& parameters,
+                             const TriangleShellOptions& options)
+    : strip_(strip), options_(options) {
+  validate_strip(strip);
+  if (const std::string error = options.validate(); !error.empty())
+    throw InputError({"", 0, leading_field(error)}, error);
+  validate_parameters(parameters);
+
+  impl_ = std::make_unique<Impl>();
+  Impl& m = *impl_;
+  m.threads = options.threads;
+  if (options.threads > 1) m.arena.initialize(options.threads);
+  else m.arena.initialize();
+  m.tri = triangulate_strip(strip, options.pattern, options.perturbation, options.seed);
+  const StripTriangulation& t = m.tri;
+  const int nv = t.num_vertices();
+
+  rest_ = Eigen::VectorXd::Zero(3 * nv);
+  for (int v = 0; v < nv; ++v) rest_.segment<2>(3 * v) = t.reference_xy.row(v).transpose();
+
+  // Material frame (core/discretization.hpp): d2 = (cos θ, sin θ), d1 = (−sin θ, cos θ).
+  const double angle = strip.angle_deg * std::numbers::pi / 180.0;
+  const Eigen::Vector2d d2(std::cos(angle), std::sin(angle)), d1(-std::sin(angle), std::cos(angle));
+  m.vertex_area = Eigen::VectorXd::Zero(nv);
+  m.cst.reserve(static_cast<size_t>(t.num_faces()));
+  for (int f = 0; f < t.num_faces(); ++f) {
+    const auto X = [&](int k) { return Eigen::Vector2d(t.reference_xy.row(t.faces(f, k))); };
+    m.cst.push_back(cst_reference(X(0), X(1), X(2), d1, d2));
+    for (int k = 0; k < 3; ++k) m.vertex_area[t.faces(f, k)] += m.cst.back().area / 3.0;
+  }
+  m.hinge_weight.reserve(t.hinges.size());
+  for (const Hinge& h : t.hinges) {
+    const auto X = [&](int k) {
+      return Eigen::Vector2d(t.reference_xy.row(h.v[static_cast<size_t>(k)]));
+    };
+    m.hinge_weight.push_back(hinge_reference(X(0), X(1), X(2), X(3)).weight);
+  }
+  m.classes = classify_hinges(t);
+  m.calibration = std::make_unique<HingeCalibration>(m.classes.response, strip.angle_deg);
+
+  // Hessian pattern: full 3×3 blocks for every vertex pair of a triangle or a hinge.
+  std::vector<Eigen::Triplet<double>> triplets;
+  auto add_blocks = [&](const int* v, int n) {
+    for (int a = 0; a < n; ++a)
+      for (int b = 0; b < n; ++b)
+        for (int r = 0; r < 3; ++r)
+          for (int s = 0; s < 3; ++s) triplets.emplace_back(3 * v[a] + r, 3 * v[b] + s, 0.0);
+  };
+  for (int f = 0; f < t.num_faces(); ++f) {
+    const std::array<int, 3> v = {t.faces(f, 0), t.faces(f, 1), t.faces(f, 2)};
+    add_blocks(v.data(), 3);
+  }
+  for (const Hinge& h : t.hinges) add_blocks(h.v.data(), 4);
+  m.pattern.resize(3 * nv, 3 * nv);
+  m.pattern.setFromTriplets(triplets.begin(), triplets.end());
+  m.pattern.makeCompressed();
+  m.pattern.coeffs().setZero();
+  const int* outer = m.pattern.outerIndexPtr();
+  const int* inner = m.pattern.innerIndexPtr();
+  auto offset = [&](int va, int vb, int s) {
+    const int col = 3 * vb + s;
+    const int* begin = inner + outer[col];
+    const int* end = inner + outer[col + 1];
+    const int* it = std::lower_bound(begin, end, 3 * va);
+    assert(it != end && *it == 3 * va && it + 2 < end && it[2] == 3 * va + 2);
+    return static_cast<int>(it - inner);
+  };
+  m.tri_offsets.resize(static_cast<size_t>(t.num_faces()));
+  for (int f = 0; f < t.num_faces(); ++f)
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b)
+        for (int s = 0; s < 3; ++s)
+          m.tri_offsets[static_cast<size_t>(f)][static_cast<size_t>((a * 3 + b) * 3 + s)] =
+              offset(t.faces(f, a), t.faces(f, b), s);
+  m.hinge_offsets.resize(t.hinges.size());
+  for (size_t h = 0; h < t.hinges.size(); ++h)
+    for (size_t a = 0; a < 4; ++a)
+      for (size_t b = 0; b < 4; ++b)
+        for (int s = 0; s < 3; ++s)
+          m.hinge_offsets[h][(a * 4 + b) * 3 + static_cast<size_t>(s)] =
+              offset(t.hinges[h].v[a], t.hinges[h].v[b], s);
+
+  // Greedy colouring, triangles and hinges separately: an element takes the smallest colour
+  // not yet used at any of its vertices.
+  auto colour_elements = [&](int count, int first_id, auto vertices_of) {
+    std::vector<std::uint64_t> used(static_cast<size_t>(nv), 0);
+    const size_t base = m.colours.size();
+    for (int e = 0; e < count; ++e) {
+      const auto vs = vertices_of(e);
+      std::uint64_t taken = 0;
+      for (int v : vs) taken |= used[static_cast<size_t>(v)];
+      int c = 0;
+      while (taken & (std::uint64_t{1} << c)) ++c;
+      if (c >= 64) throw std::logic_error("TriangleShell: more than 64 colours");
+      for (int v : vs) used[static_cast<size_t>(v)] |= std::uint64_t{1} << c;
+      if (base + static_cast<size_t>(c) >= m.colours.size()) m.colours.resize(base + static_cast<size_t>(c) + 1);
+      m.colours[base + static_cast<size_t>(c)].push_back(first_id + e);
+    }
+  };
+  colour_elements(t.num_faces(), 0, [&](int f) {
+    return std::array<int, 3>{t.faces(f, 0), t.faces(f, 1), t.faces(f, 2)};
+  });
+  colour_elements(m.num_hinges(), t.num_faces(),
+                  [&](int h) { return t.hinges[static_cast<size_t>(h)].v; });
+
+  // Point location grid (cells of the unperturbed pattern; perturbed triangles overlap at
+  // most the neighbouring cells, found through their bounding boxes).
+  const int nx = t.cells_along, ny = t.cells_across;
+  m.cell_triangles.assign(static_cast<size_t>(nx * ny), {});
+  const double y0 = -0.5 * strip.width_m;
+  for (int f = 0; f < t.num_faces(); ++f) {
+    Eigen::Vector2d lo = t.reference_xy.row(t.faces(f, 0)), hi = lo;
+    for (int k = 1; k < 3; ++k) {
+      lo = lo.cwiseMin(Eigen::Vector2d(t.reference_xy.row(t.faces(f, k))));
+      hi = hi.cwiseMax(Eigen::Vector2d(t.reference_xy.row(t.faces(f, k))));
+    }
+    const auto cell_index = [](double value, double h, int n) {
+      return std::clamp(static_cast<int>(std::floor(value / h)), 0, n - 1);
+    };
+    // Widen by a little so points on shared edges find both triangles.
+    const double ex = 1e-9 * t.cell_length_m, ey = 1e-9 * t.cell_width_m;
+    const int i0 = cell_index(lo.x() - ex, t.cell_length_m, nx);
+    const int i1 = cell_index(hi.x() + ex, t.cell_length_m, nx);
+    const int j0 = cell_index(lo.y() - y0 - ey, t.cell_width_m, ny);
+    const int j1 = cell_index(hi.y() - y0 + ey, t.cell_width_m, ny);
+    for (int j = j0; j <= j1; ++j)
+      for (int i = i0; i <= i1; ++i) m.cell_triangles[static_cast<size_t>(j * nx + i)].push_back(f);
+  }
+
+  law_ = std::make_unique<MaterialLaw>(parameters);
+  stiffness_ = m.calibration->solve(parameters);
+}
+
+TriangleShell::~TriangleShell() = default;
+
+int TriangleShell::num_nodes() const { return impl_->tri.num_vertices(); }
+const StripTriangulation& TriangleShell::triangulation() const { return impl_->tri; }
+const std::vector<int>& TriangleShell::hinge_class() const { return impl_->classes.class_of_hinge; }
+const HingeCalibration& TriangleShell::hinge_calibration() const { return *impl_->calibration; }
+
+void TriangleShell::set_parameters(const MaterialParameters& parameters) {
+  validate_parameters(parameters);
+  law_ = std::make_unique<MaterialLaw>(parameters);
+  stiffness_ = impl_->calibration->solve(parameters);
+}
+
+double TriangleShell::energy(const Eigen::VectorXd& q, Eigen::VectorXd* gradient,
+                             SparseMatrix* hessian) const {
+  const Impl& m = *impl_;
+  const StripTriangulation& t = m.tri;
+  assert(q.size() == num_dofs());
+  const double tau = law_->parameters().thickness_m;
+  const double rho = law_->parameters().density_kg_m2;
+  const int nf = m.num_faces();
+  std::vector<double> element_energy(static_cast<size_t>(nf + m.num_hinges()), 0.0);
+
+  if (gradient) gradient->setZero(num_dofs());
+  double* values = nullptr;
+  if (hessian) {
+    const bool same_pattern =
+        hessian->rows() == m.pattern.rows() && hessian->cols() == m.pattern.cols() &&
+        hessian->isCompressed() && hessian->nonZeros() == m.pattern.nonZeros() &&
+        std::equal(m.pattern.outerIndexPtr(), m.pattern.outerIndexPtr() + m.pattern.cols() + 1,
+                   hessian->outerIndexPtr()) &&
+        std::equal(m.pattern.innerIndexPtr(), m.pattern.innerIndexPtr() + m.pattern.nonZeros(),
+                   hessian->innerIndexPtr());
+    if (same_pattern) hessian->coeffs().setZero();
+    else *hessian = m.pattern;
+    values = hessian->valuePtr();
+  }
+
+  auto element = [&](int id) {
+    if (id < nf) {
+      const int v[3] = {t.faces(id, 0), t.faces(id, 1), t.faces(id, 2)};
+      Vector9 g;
+      Matrix9 H;
+      element_energy[static_cast<size_t>(id)] =
+          cst_energy(*law_, tau, m.cst[static_cast<size_t>(id)], vertex(q, v[0]), vertex(q, v[1]),
+                     vertex(q, v[2]), gradient ? &g : nullptr, hessian ? &H : nullptr);
+      if (gradient)
+        for (int a = 0; a < 3; ++a) gradient->segment<3>(3 * v[a]) += g.segment<3>(3 * a);
+      if (hessian) {
+        const auto& off = m.tri_offsets[static_cast<size_t>(id)];
+        for (int a = 0; a < 3; ++a)
+          for (int b = 0; b < 3; ++b)
+            for (int s = 0; s < 3; ++s) {
+              double* dst = values + off[static_cast<size_t>((a * 3 + b) * 3 + s)];
+              for (int r = 0; r < 3; ++r) dst[r] += H(3 * a + r, 3 * b + s);
+            }
+      }
+      return;
+    }
+    const int h = id - nf;
+    const auto hu = static_cast<size_t>(h);
+    const Hinge& hinge = t.hinges[hu];
+    const double kg =
+        stiffness_.stiffness[m.classes.class_of_hinge[hu]] * m.hinge_weight[hu];
+    Vector12 dtheta;
+    Matrix12 d2theta;
+    const double theta =
+        dihedral_angle(vertex(q, hinge.v[0]), vertex(q, hinge.v[1]), vertex(q, hinge.v[2]),
+                       vertex(q, hinge.v[3]), (gradient || hessian) ? &dtheta : nullptr,
+                       hessian ? &d2theta : nullptr);
+    element_energy[static_cast<size_t>(id)] = kg * theta * theta;
+    if (gradient)
+      for (size_t a = 0; a < 4; ++a)
+        gradient->segment<3>(3 * hinge.v[a]) +=
+            2.0 * kg * theta * dtheta.segment<3>(3 * static_cast<int>(a));
+    if (hessian) {
+      const Matrix12 H = 2.0 * kg * (dtheta * dtheta.transpose() + theta * d2theta);
+      const auto& off = m.hinge_offsets[hu];
+      for (int a = 0; a < 4; ++a)
+        for (int b = 0; b < 4; ++b)
+          for (int s = 0; s < 3; ++s) {
+            double* dst = values + off[static_cast<size_t>((a * 4 + b) * 3 + s)];
+            for (int r = 0; r < 3; ++r) dst[r] += H(3 * a + r, 3 * b + s);
+          }
+    }
+  };
+
+  if (gradient || hessian) {
+    m.for_each_coloured(element);
+  } else if (m.threads == 1 || element_energy.size() < 4 * kParallelMinimum) {
+    for (int id = 0; id < static_cast<int>(element_energy.size()); ++id) element(id);
+  } else {
+    // Energy only: each element writes its own slot, no colouring needed.
+    m.arena.execute([&] {
+      tbb::parallel_for(tbb::blocked_range<int>(0, static_cast<int>(element_energy.size()), 64),
+                        [&](const tbb::blocked_range<int>& r) {
+                          for (int id = r.begin(); id != r.end(); ++id) element(id);
+                        });
+    });
+  }
+
+  // Summed in element order: the same value for every thread count.
+  double total = 0.0;
+  for (double e : element_energy) total += e;
+  for (int v = 0; v < t.num_vertices(); ++v) {
+    const double mass = rho * m.vertex_area[v];
+    total -= mass * gravity_.dot(vertex(q, v));
+    if (gradient) gradient->segment<3>(3 * v) -= mass * gravity_;
+  }
+  return total;
+}
+
+TriangleShellEnergyParts TriangleShell::energy_parts(const Eigen::VectorXd& q) const {
+  const Impl& m = *impl_;
+  const StripTriangulation& t = m.tri;
+  TriangleShellEnergyParts parts;
+  const double tau = law_->parameters().thickness_m;
+  for (int f = 0; f < m.num_faces(); ++f)
+    parts.membrane += cst_energy(*law_, tau, m.cst[static_cast<size_t>(f)], vertex(q, t.faces(f, 0)),
+                                 vertex(q, t.faces(f, 1)), vertex(q, t.faces(f, 2)));
+  parts.bending = hinge_energies(q).sum();
+  for (int v = 0; v < t.num_vertices(); ++v)
+    parts.gravity -= law_->parameters().density_kg_m2 * m.vertex_area[v] * gravity_.dot(vertex(q, v));
+  return parts;
+}
+
+Eigen::VectorXd TriangleShell::hinge_energies(const Eigen::VectorXd& q) const {
+  const Impl& m = *impl_;
+  const StripTriangulation& t = m.tri;
+  Eigen::VectorXd out(m.num_hinges());
+  for (size_t h = 0; h < t.hinges.size(); ++h) {
+    const auto& v = t.hinges[h].v;
+    const double theta = dihedral_angle(vertex(q, v[0]), vertex(q, v[1]), vertex(q, v[2]),
+                                        vertex(q, v[3]));
+    out[static_cast<Eigen::Index>(h)] =
+        stiffness_.stiffness[m.classes.class_of_hinge[h]] * m.hinge_weight[h] * theta * theta;
+  }
+  return out;
+}
+
+void TriangleShell::gradient_parameter_jacobian(const Eigen::VectorXd& q,
+                                                Eigen::MatrixXd* dgradient_dk) const {
+  const Impl& m = *impl_;
+  const StripTriangulation& t = m.tri;
+  const int nk = law_->num_parameters();
+  const double tau = law_->parameters().thickness_m;
+  const int nf = m.num_faces();
+  Eigen::MatrixXd& J = *dgradient_dk;
+  J.setZero(num_dofs(), nk);
+  // Columns of the hinge stiffness derivative (hinge_bending.hpp: a11, a12, a22, G12, τ).
+  const std::array<int, 5> bending_columns = {FlatLayout::kA11, FlatLayout::kA12,
+                                              FlatLayout::kA22, FlatLayout::kG12,
+                                              FlatLayout::kThickness};
+  m.for_each_coloured([&](int id) {
+    if (id < nf) {
+      const int v[3] = {t.faces(id, 0), t.faces(id, 1), t.faces(id, 2)};
+      const Eigen::Matrix<double, 9, Eigen::Dynamic> local = cst_gradient_parameter_jacobian(
+          *law_, tau, m.cst[static_cast<size_t>(id)], vertex(q, v[0]), vertex(q, v[1]),
+          vertex(q, v[2]));
+      for (int a = 0; a < 3; ++a) J.middleRows<3>(3 * v[a]) += local.middleRows<3>(3 * a);
+      return;
+    }
+    const auto hu = static_cast<size_t>(id - nf);
+    const Hinge& hinge = t.hinges[hu];
+    Vector12 dtheta;
+    const double theta =
+        dihedral_angle(vertex(q, hinge.v[0]), vertex(q, hinge.v[1]), vertex(q, hinge.v[2]),
+                       vertex(q, hinge.v[3]), &dtheta, nullptr);
+    // ∂(2 k g θ ∇θ)/∂k_param = 2 (∂k/∂param) g θ ∇θ.
+    const Vector12 unit = 2.0 * m.hinge_weight[hu] * theta * dtheta;
+    const int c = m.classes.class_of_hinge[hu];
+    for (size_t p = 0; p < bending_columns.size(); ++p) {
+      const double dk = stiffness_.derivative(c, static_cast<Eigen::Index>(p));
+      if (dk == 0.0) continue;
+      for (size_t a = 0; a < 4; ++a)
+        J.block<3, 1>(3 * hinge.v[a], bending_columns[p]) +=
+            dk * unit.segment<3>(3 * static_cast<int>(a));
+    }
+  });
+  // Gravity: ∂(−m_i g)/∂ρ_A = −(Σ Ā_T/3) g.
+  for (int v = 0; v < t.num_vertices(); ++v)
+    J.block<3, 1>(3 * v, FlatLayout::kDensity) -= m.vertex_area[v] * gravity_;
+}
+
+std::vector<int> TriangleShell::clamped_nodes(StripEnd end, bool clamp_slope) const {
+  const StripTriangulation& t = impl_->tri;
+  const int last = 2 * t.cells_along;
+  std::vector<int> out;
+  for (int v = 0; v < t.num_vertices(); ++v) {
+    const int hc = t.half_column[static_cast<size_t>(v)];
+    const int from_end = end == StripEnd::Start ? hc : last - hc;
+    if (from_end == 0 || (clamp_slope && from_end <= 2)) out.push_back(v);
+  }
+  return out;
+}
+
+SparseMatrix TriangleShell::point_evaluation(const std::vector<Eigen::Vector2d>& points) const {
+  const Impl& m = *impl_;
+  const StripTriangulation& t = m.tri;
+  std::vector<Eigen::Triplet<double>> triplets;
+  triplets.reserve(points.size() * 9);
+  const double y0 = -0.5 * strip_.width_m;
+  // A point counts as inside the strip up to this relative slack (round-off in callers).
+  const double slack = 1e-9;
+  for (size_t p = 0; p < points.size(); ++p) {
+    const Eigen::Vector2d& x = points[p];
+    const double u = x.x() / t.cell_length_m, w = (x.y() - y0) / t.cell_width_m;
+    if (!(u >= -slack && u <= t.cells_along + slack && w >= -slack && w <= t.cells_across + slack))
+      throw InputError({"", 0, "points[" + std::to_string(p) + "]"},
+                       "point (" + std::to_string(x.x()) + ", " + std::to_string(x.y()) +
+                           ") m is outside the strip");
+    const int i = std::clamp(static_cast<int>(std::floor(u)), 0, t.cells_along - 1);
+    const int j = std::clamp(static_cast<int>(std::floor(w)), 0, t.cells_across - 1);
+    int best = -1;
+    double best_min = -std::numeric_limits<double>::infinity();
+    Eigen::Vector3d best_lambda;
+    for (int f : m.cell_triangles[static_cast<size_t>(j * t.cells_along + i)]) {
+      const Eigen::Vector2d a = t.reference_xy.row(t.faces(f, 0));
+      const Eigen::Vector2d b = t.reference_xy.row(t.faces(f, 1));
+      const Eigen::Vector2d c = t.reference_xy.row(t.faces(f, 2));
+      Eigen::Matrix2d T;
+      T.col(0) = b - a;
+      T.col(1) = c - a;
+      const Eigen::Vector2d l12 = T.inverse() * (x - a);
+      const Eigen::Vector3d lambda(1.0 - l12.sum(), l12.x(), l12.y());
+      if (lambda.minCoeff() > best_min) {
+        best_min = lambda.minCoeff();
+        best = f;
+        best_lambda = lambda;
+      }
+    }
+    if (best < 0 || best_min < -1e-6)
+      throw InputError({"", 0, "points[" + std::to_string(p) + "]"},
+                       "no triangle contains point (" + std::to_string(x.x()) + ", " +
+                           std::to_string(x.y()) + ") m");
+    for (int k = 0; k < 3; ++k)
+      for (int r = 0; r < 3; ++r)
+        triplets.emplace_back(static_cast<int>(3 * p) + r, 3 * t.faces(best, k) + r, best_lambda[k]);
+  }
+  SparseMatrix P(static_cast<Eigen::Index>(3 * points.size()), num_dofs());
+  P.setFromTriplets(triplets.begin(), triplets.end());
+  return P;
+}
+
+Eigen::VectorXd TriangleShell::lumped_mass() const {
+  const Impl& m = *impl_;
+  Eigen::VectorXd mass(num_dofs());
+  const double rho = law_->parameters().density_kg_m2;
+  for (int v = 0; v < num_nodes(); ++v) mass.segment<3>(3 * v).setConstant(rho * m.vertex_area[v]);
+  return mass;
+}
+
+void TriangleShell::surface_mesh(const Eigen::VectorXd& q, Eigen::MatrixXd* vertices,
+                                 Eigen::MatrixXi* faces) const {
+  if (vertices) {
+    vertices->resize(num_nodes(), 3);
+    for (int v = 0; v < num_nodes(); ++v) vertices->row(v) = vertex(q, v).transpose();
+  }
+  if (faces) *faces = impl_->tri.faces;
+}
+
+}  // namespace twill

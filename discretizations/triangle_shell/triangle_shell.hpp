@@ -1,0 +1,133 @@
+#pragma once
+// The triangle shell: linear membrane triangles plus orthotropic discrete-shell hinge bending
+// on an OpenMesh triangulation of the strip (docs/triangle_shell.md; docs/model.md §1–2, §6).
+// Registered name "triangle-shell".
+//
+// Nodes are the mesh vertices (strip_triangulation.hpp: numbering and patterns), dofs their
+// positions q = [x0 y0 z0 x1 …] [m] (core/discretization.hpp). Energy [J]:
+//
+//   Ψ(q) = Σ_T τ Ā_T ψ(ẽ_T)                      membrane, constant-strain triangles
+//        + Σ_hinges k_c(e) · |ē|²/Ā_e · θ_e²       bending, flat rest state (θ̄ = 0)
+//        − Σ_i m_i g·x_i                           gravity, m_i = ρ_A Σ_{T∋i} Ā_T/3
+//
+// ẽ_T = (Ẽ11, Ẽ22, Ẽ12) is the orthotropic Green strain of triangle T
+// (constant_strain_triangle.hpp), θ_e the dihedral angle of interior edge e and Ā_e a third of
+// its two triangles' reference area (Grinspun et al. 2003). The hinge stiffness k_c of each
+// hinge class c ∝ τ³ and is linear in (a11, a22, a12 + G12): it is solved so that a cylinder
+// bent along warp, along weft and at 45° carries the Kirchhoff–Love energy
+// τ³/24 · ẽᵀ ∂²ψ/∂ẽ²(0) ẽ per unit area (hinge_bending.hpp; derivation, exactness per pattern
+// and limits in docs/triangle_shell.md §4–5). The membrane is the paper's law exactly; the
+// through-thickness integral is split as τψ(ε) + (bending at zero strain), i.e. the
+// second-order expansion of model.md §6 with the bending term evaluated at ε = 0.
+//
+// Gradient and Hessian are exact (no projection). The Hessian pattern (3×3 blocks for every
+// vertex pair sharing a triangle or a hinge) is built once; assembly writes values only,
+// elements in parallel (TBB) by colour classes (elements of one colour share no vertex, so
+// writes never collide and results are bitwise deterministic for any thread count).
+//
+// Clamps (clamped_nodes): the vertices on the end line, and with clamp_slope also the next
+// vertex column (for the cross pattern: every vertex of the end cell column, centres
+// included), which holds the first cell row of triangles and with it the slope.
+#include <Eigen/Core>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/discretization.hpp"
+#include "core/material_law.hpp"
+#include "core/parameters.hpp"
+#include "discretizations/triangle_shell/hinge_bending.hpp"
+#include "discretizations/triangle_shell/triangle_pattern.hpp"
+
+namespace twill {
+
+struct StripTriangulation;
+class OptionSchema;
+class Options;
+
+struct TriangleShellOptions {
+  /// Mesh pattern (strip_triangulation.hpp). Alternating is the default: with the material
+  /// axes along the strip (0°/90°) it reproduces cylinders bent in *every* direction, where
+  /// right/left fail across their diagonals (docs/triangle_shell.md §5).
+  TrianglePattern pattern = TrianglePattern::Alternating;
+  /// Irregular pattern: largest vertex offset as a fraction of the cell size, in [0, 0.25)
+  /// (a quarter cell can invert a triangle).
+  double perturbation = 0.2;
+  std::uint64_t seed = 1;  ///< irregular pattern: random seed
+  int threads = 0;         ///< worker threads for assembly; 0 = TBB's choice, 1 = serial
+
+  /// Empty when valid; otherwise names the field and the violated constraint (Ceres style).
+  std::string validate() const;
+};
+
+/// The option schema under which "triangle-shell" is registered (registry.hpp): pattern,
+/// perturbation, seed, threads, with the defaults and constraints of TriangleShellOptions.
+OptionSchema triangle_shell_option_schema();
+/// TriangleShellOptions from options resolved against triangle_shell_option_schema().
+TriangleShellOptions triangle_shell_options(const Options& resolved);
+
+/// The three parts of Ψ(q) [J].
+struct TriangleShellEnergyParts {
+  double membrane = 0, bending = 0, gravity = 0;
+  double total() const { return membrane + bending + gravity; }
+};
+
+class TriangleShell final : public Discretization {
+ public:
+  /// Builds mesh, reference data, hinge classes and the Hessian pattern. Throws InputError
+  /// (key = the offending field) for an invalid strip, parameters or options.
+  TriangleShell(const StripSpec& strip, const MaterialParameters& parameters,
+                const TriangleShellOptions& options = {});
+  ~TriangleShell() override;
+  TriangleShell(const TriangleShell&) = delete;
+  TriangleShell& operator=(const TriangleShell&) = delete;
+
+  std::string name() const override { return "triangle-shell"; }
+  const StripSpec& strip() const override { return strip_; }
+  int num_nodes() const override;
+  const Eigen::VectorXd& rest_positions() const override { return rest_; }
+
+  void set_parameters(const MaterialParameters& parameters) override;
+  const MaterialParameters& parameters() const override { return law_->parameters(); }
+  void set_gravity(const Eigen::Vector3d& g_m_s2) override { gravity_ = g_m_s2; }
+
+  double energy(const Eigen::VectorXd& q, Eigen::VectorXd* gradient,
+                SparseMatrix* hessian) const override;
+  void gradient_parameter_jacobian(const Eigen::VectorXd& q,
+                                   Eigen::MatrixXd* dgradient_dk) const override;
+  std::vector<int> clamped_nodes(StripEnd end, bool clamp_slope) const override;
+  /// Barycentric interpolation in the reference triangle containing each point (a point on
+  /// an edge takes the triangle where it is most inside). Throws InputError (key
+  /// "points[i]") for a point outside the strip.
+  SparseMatrix point_evaluation(const std::vector<Eigen::Vector2d>& points) const override;
+  Eigen::VectorXd lumped_mass() const override;
+  /// The mesh triangles themselves: vertices = q as #V × 3, faces #F × 3.
+  void surface_mesh(const Eigen::VectorXd& q, Eigen::MatrixXd* vertices,
+                    Eigen::MatrixXi* faces) const override;
+
+  /// Ψ split into membrane, bending and gravity (diagnostics and tests).
+  TriangleShellEnergyParts energy_parts(const Eigen::VectorXd& q) const;
+  /// Bending energy of every hinge k_c g_e θ_e² [J], in triangulation().hinges order.
+  Eigen::VectorXd hinge_energies(const Eigen::VectorXd& q) const;
+
+  const TriangleShellOptions& options() const { return options_; }
+  const StripTriangulation& triangulation() const;
+  /// Class of every hinge (same order as triangulation().hinges) and the calibration.
+  const std::vector<int>& hinge_class() const;
+  const HingeCalibration& hinge_calibration() const;
+  /// Current class stiffnesses (recomputed by set_parameters()).
+  const HingeClassStiffness& hinge_stiffness() const { return stiffness_; }
+
+ private:
+  struct Impl;
+  StripSpec strip_;
+  TriangleShellOptions options_;
+  std::unique_ptr<MaterialLaw> law_;
+  HingeClassStiffness stiffness_;
+  Eigen::Vector3d gravity_ = Eigen::Vector3d::Zero();
+  Eigen::VectorXd rest_;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace twill

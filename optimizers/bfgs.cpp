@@ -1,0 +1,231 @@
+#include "optimizers/bfgs.hpp"
+
+#include <fmt/format.h>
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+namespace twill {
+namespace {
+
+// One evaluated line-search trial, kept so the accepted one need not be evaluated again.
+struct Trial {
+  double alpha = 0.0;
+  Eigen::VectorXd x, gradient;
+  double value = 0.0;
+};
+
+// The quasi-Newton direction with the variables in `held` fixed: p_F = −[(H⁻¹)_FF]⁻¹ g_F, the
+// minimiser of the quadratic model over the free variables. With B = H⁻¹, the inverse of the
+// block B_FF is the Schur complement H_FF − H_FH H_HH⁻¹ H_HF, so no inverse of H is formed.
+// Using H_FF alone would ignore the curvature coupling to the held variables and converge only
+// linearly along a bound.
+Eigen::VectorXd reduced_direction(const Eigen::MatrixXd& H, const Eigen::VectorXd& g,
+                                  const std::vector<int>& free, const std::vector<int>& held) {
+  Eigen::VectorXd p = Eigen::VectorXd::Zero(g.size());
+  if (held.empty()) return -(H * g);
+  if (free.empty()) return p;
+  const Eigen::MatrixXd H_ff = H(free, free), H_fh = H(free, held), H_hh = H(held, held);
+  const Eigen::MatrixXd reduced = H_ff - H_fh * H_hh.llt().solve(H_fh.transpose());
+  p(free) = -(reduced * g(free));
+  return p;
+}
+
+}  // namespace
+
+std::vector<OptionBinding<BfgsOptions>> bfgs_option_bindings() {
+  auto bindings = common_option_bindings<BfgsOptions>();
+  bindings.push_back(
+      real_option<BfgsOptions>("c1", &BfgsOptions::c1, 0.0, false, 1.0, false,
+                               "strong Wolfe sufficient-decrease constant (c1 < c2)"));
+  bindings.push_back(real_option<BfgsOptions>("c2", &BfgsOptions::c2, 0.0, false, 1.0, false,
+                                              "strong Wolfe curvature constant (c1 < c2)"));
+  bindings.push_back(integer_option<BfgsOptions>("max_line_search_evaluations",
+                                                 &BfgsOptions::max_line_search_evaluations, 1, 1000,
+                                                 "evaluations allowed per line search"));
+  bindings.push_back(real_option<BfgsOptions>(
+      "update_skip_threshold", &BfgsOptions::update_skip_threshold, 0.0, true, 1.0, false,
+      "skip the BFGS update when y's <= this * norm(s) * norm(y)"));
+  return bindings;
+}
+
+bool BfgsOptions::validate(std::string* error) const {
+  if (!check_options(bfgs_option_bindings(), *this, error)) return false;
+  if (!(c1 < c2)) {
+    if (error) *error = fmt::format("c1 = {} must be smaller than c2 = {} (c1 < c2)", c1, c2);
+    return false;
+  }
+  return true;
+}
+
+LineSearchOptions BfgsOptions::line_search() const {
+  LineSearchOptions o;
+  o.c1 = c1;
+  o.c2 = c2;
+  o.max_evaluations = max_line_search_evaluations;
+  return o;
+}
+
+bool bfgs_update(Eigen::MatrixXd& H, const Eigen::VectorXd& s, const Eigen::VectorXd& y,
+                 double epsilon) {
+  const double ys = y.dot(s);
+  if (!(ys > epsilon * s.norm() * y.norm())) return false;
+  const double rho = 1.0 / ys;
+  const Eigen::VectorXd Hy = H * y;
+  // Expanded eq. 6.17: H − ρ (s (Hy)ᵀ + Hy sᵀ) + (ρ² yᵀHy + ρ) s sᵀ; O(n²) instead of O(n³).
+  H.noalias() -= rho * (s * Hy.transpose() + Hy * s.transpose());
+  H.noalias() += (rho * rho * y.dot(Hy) + rho) * (s * s.transpose());
+  return true;
+}
+
+Bfgs::Bfgs(BfgsOptions options) : options_(std::move(options)) {
+  std::string error;
+  if (!options_.validate(&error)) throw InputError({"", 0, ""}, "bfgs: " + error);
+}
+
+OptionValues Bfgs::resolved_options() const {
+  return option_values(bfgs_option_bindings(), options_);
+}
+
+void Bfgs::run(CountedProblem& problem, Eigen::VectorXd x, OptimizerResult& result) const {
+  const Eigen::VectorXd& lower = problem.lower();
+  const Eigen::VectorXd& upper = problem.upper();
+  const Eigen::Index n = problem.dimension();
+  Eigen::VectorXd g(n);
+  double f = problem.evaluate(x, &g);
+  result.x = x;
+  result.summary.final_value = f;
+  if (!std::isfinite(f)) {
+    result.status = OptimizerStatus::failed;
+    result.message = "the objective is not finite at x0";
+    return;
+  }
+  double gradient_norm = projected_gradient_norm(x, g, lower, upper);
+  problem.record_iteration(x, f, gradient_norm, 0.0);
+
+  auto finish = [&](OptimizerStatus status, std::string message) {
+    result.x = x;
+    result.status = status;
+    result.message = std::move(message);
+    result.summary.final_value = f;
+    result.summary.final_gradient_norm = gradient_norm;
+  };
+
+  Eigen::MatrixXd H = Eigen::MatrixXd::Identity(n, n);
+  double gamma = 1.0;   // latest yᵀs / yᵀy: the scale of H after a reset
+  bool scaled = false;  // eq. 6.20 has been applied
+  bool fresh = true;    // H is a multiple of I (no curvature pairs): a retry would not help
+  int spent_on_failed_attempt = 0;  // evaluations of a failed search before the reset
+  const LineSearchOptions line_search = options_.line_search();
+  for (int k = 1;; ++k) {
+    if (gradient_norm <= options_.gradient_tolerance)
+      return finish(OptimizerStatus::converged,
+                    fmt::format("gradient norm {:.3g} <= gradient_tolerance {:.3g}", gradient_norm,
+                                options_.gradient_tolerance));
+    if (k > options_.max_iterations)
+      return finish(OptimizerStatus::iteration_limit,
+                    fmt::format("max_iterations = {} reached", options_.max_iterations));
+    if (problem.evaluations() >= options_.max_evaluations)
+      return finish(OptimizerStatus::iteration_limit,
+                    fmt::format("max_evaluations = {} reached", options_.max_evaluations));
+
+    // Variables at a bound that the gradient pushes outward are held for this step.
+    std::vector<int> free, held;
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const bool blocked = (x[i] <= lower[i] && g[i] > 0.0) || (x[i] >= upper[i] && g[i] < 0.0);
+      (blocked ? held : free).push_back(static_cast<int>(i));
+    }
+    Eigen::VectorXd p = reduced_direction(H, g, free, held);
+    drop_blocked_components(x, lower, upper, p);
+    double dphi0 = g.dot(p);
+    if (!(dphi0 < 0.0) && !fresh) {
+      H = gamma * Eigen::MatrixXd::Identity(n, n);
+      fresh = true;
+      p = reduced_direction(H, g, free, held);
+      drop_blocked_components(x, lower, upper, p);
+      dphi0 = g.dot(p);
+    }
+    if (!(dphi0 < 0.0))
+      return finish(OptimizerStatus::stalled,
+                    fmt::format("no descent direction at iteration {} (g'p = {:.3g})", k, dphi0));
+
+    const double alpha_max = max_feasible_step(x, p, lower, upper);
+    const double alpha_initial = scaled ? 1.0 : std::min(1.0, 1.0 / p.norm());
+    std::vector<Trial> trials;
+    const LineFunction phi = [&](double alpha, double* dphi) {
+      Trial t;
+      t.alpha = alpha;
+      t.x = take_step(x, p, alpha, lower, upper);
+      t.value = problem.evaluate(t.x, &t.gradient);
+      *dphi = std::isfinite(t.value) ? t.gradient.dot(p) : std::numeric_limits<double>::quiet_NaN();
+      trials.push_back(t);
+      return t.value;
+    };
+    LineSearchOptions budgeted = line_search;
+    budgeted.max_evaluations =
+        std::min(line_search.max_evaluations, options_.max_evaluations - problem.evaluations());
+    const LineSearchOutcome outcome =
+        strong_wolfe_line_search(phi, {0.0, f, dphi0}, alpha_initial, alpha_max, budgeted);
+
+    if (outcome.status == LineSearchOutcome::Status::failed) {
+      if (problem.evaluations() >= options_.max_evaluations)
+        return finish(
+            OptimizerStatus::iteration_limit,
+            fmt::format("max_evaluations = {} reached in a line search", options_.max_evaluations));
+      if (!fresh) {
+        H = gamma * Eigen::MatrixXd::Identity(n, n);
+        fresh = true;
+        spent_on_failed_attempt = outcome.evaluations;
+        --k;
+        continue;
+      }
+      return finish(OptimizerStatus::line_search_failed,
+                    fmt::format("line search failed at iteration {}: {}", k, outcome.message));
+    }
+
+    const auto accepted = std::find_if(trials.begin(), trials.end(), [&](const Trial& t) {
+      return t.alpha == outcome.accepted.alpha;
+    });
+    if (accepted == trials.end())
+      throw std::logic_error("bfgs: the accepted step was not among the evaluated trials");
+    const Eigen::VectorXd s = accepted->x - x;
+    const Eigen::VectorXd y = accepted->gradient - g;
+    const double ys = y.dot(s);
+    const bool curvature_ok = ys > options_.update_skip_threshold * s.norm() * y.norm();
+    if (curvature_ok) {
+      gamma = ys / y.squaredNorm();
+      if (!scaled) {
+        H = gamma * Eigen::MatrixXd::Identity(n, n);  // eq. 6.20, before the first update
+        scaled = true;
+      }
+    }
+    if (bfgs_update(H, s, y, options_.update_skip_threshold)) fresh = false;
+
+    LineSearchRecord record;
+    record.iteration = k;
+    record.alpha = outcome.accepted.alpha;
+    record.phi_0 = f;
+    record.dphi_0 = dphi0;
+    record.phi_alpha = outcome.accepted.phi;
+    record.dphi_alpha = outcome.accepted.dphi;
+    record.evaluations = outcome.evaluations + spent_on_failed_attempt;
+    spent_on_failed_attempt = 0;
+    record.step_limited = outcome.status == LineSearchOutcome::Status::step_limit;
+    problem.record_line_search(record);
+
+    const Eigen::VectorXd x_previous = x;
+    const double f_previous = f;
+    x = accepted->x;
+    f = accepted->value;
+    g = accepted->gradient;
+    gradient_norm = projected_gradient_norm(x, g, lower, upper);
+    problem.record_iteration(x, f, gradient_norm, s.lpNorm<Eigen::Infinity>());
+    if (auto reason = check_convergence(options_, f_previous, f, x_previous, x, gradient_norm))
+      return finish(OptimizerStatus::converged, *reason);
+  }
+}
+
+}  // namespace twill

@@ -1,0 +1,237 @@
+#include "optimizers/gauss_newton.hpp"
+
+#include <fmt/format.h>
+
+#include <Eigen/QR>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace twill {
+namespace {
+
+// Residuals, Jacobian, f = ‖r‖² and ∇f = 2Jᵀr at one point.
+struct Linearization {
+  Eigen::VectorXd x, r, gradient;
+  Eigen::MatrixXd J;
+  double value = 0.0;
+};
+
+Linearization linearize(CountedProblem& problem, Eigen::VectorXd x) {
+  Linearization l;
+  l.x = std::move(x);
+  l.value = problem.residuals(l.x, &l.r, &l.J, &l.gradient);
+  return l;
+}
+
+// argmin_h ‖r + J h‖² + λ ‖D h‖² over the free variables (others stay 0).
+Eigen::VectorXd model_step(const Linearization& at, const std::vector<int>& free, double lambda) {
+  const Eigen::MatrixXd J = at.J(Eigen::all, free);
+  Eigen::VectorXd h_free;
+  if (lambda > 0.0) {
+    const Eigen::Index m = J.rows(), nf = J.cols();
+    Eigen::VectorXd d2 = J.colwise().squaredNorm().transpose();
+    const double floor = std::max(1e-12 * d2.maxCoeff(), std::numeric_limits<double>::min());
+    d2 = d2.cwiseMax(floor);
+    Eigen::MatrixXd augmented(m + nf, nf);
+    augmented << J, Eigen::MatrixXd((lambda * d2).cwiseSqrt().asDiagonal());
+    Eigen::VectorXd rhs = Eigen::VectorXd::Zero(m + nf);
+    rhs.head(m) = -at.r;
+    h_free = augmented.colPivHouseholderQr().solve(rhs);
+  } else {
+    h_free = J.colPivHouseholderQr().solve(-at.r);
+  }
+  Eigen::VectorXd h = Eigen::VectorXd::Zero(at.x.size());
+  h(free) = h_free;
+  return h;
+}
+
+}  // namespace
+
+std::vector<OptionBinding<GaussNewtonOptions>> gauss_newton_option_bindings() {
+  constexpr double inf = std::numeric_limits<double>::infinity();
+  auto bindings = common_option_bindings<GaussNewtonOptions>();
+  bindings.push_back(enum_option<GaussNewtonOptions>(
+      "damping", &GaussNewtonOptions::damping,
+      {{"none", GaussNewtonDamping::none},
+       {"levenberg-marquardt", GaussNewtonDamping::levenberg_marquardt}},
+      "none: Gauss-Newton step + backtracking; levenberg-marquardt: adaptive damping (Nielsen)"));
+  bindings.push_back(real_option<GaussNewtonOptions>(
+      "initial_lambda", &GaussNewtonOptions::initial_lambda, 0.0, false, inf, false,
+      "initial Levenberg-Marquardt damping, relative to diag(J'J)"));
+  bindings.push_back(
+      real_option<GaussNewtonOptions>("max_lambda", &GaussNewtonOptions::max_lambda, 0.0, false,
+                                      inf, false, "stop (stalled) when the damping exceeds this"));
+  bindings.push_back(real_option<GaussNewtonOptions>(
+      "c1", &GaussNewtonOptions::c1, 0.0, false, 1.0, false,
+      "Armijo sufficient-decrease constant of the backtracking line search (damping none)"));
+  bindings.push_back(integer_option<GaussNewtonOptions>(
+      "max_line_search_evaluations", &GaussNewtonOptions::max_line_search_evaluations, 1, 1000,
+      "evaluations allowed per backtracking line search (damping none)"));
+  return bindings;
+}
+
+bool GaussNewtonOptions::validate(std::string* error) const {
+  if (!check_options(gauss_newton_option_bindings(), *this, error)) return false;
+  if (!(initial_lambda <= max_lambda)) {
+    if (error)
+      *error = fmt::format("initial_lambda = {} must not exceed max_lambda = {}", initial_lambda,
+                           max_lambda);
+    return false;
+  }
+  return true;
+}
+
+GaussNewton::GaussNewton(GaussNewtonOptions options) : options_(std::move(options)) {
+  std::string error;
+  if (!options_.validate(&error)) throw InputError({"", 0, ""}, "gauss-newton: " + error);
+}
+
+OptionValues GaussNewton::resolved_options() const {
+  return option_values(gauss_newton_option_bindings(), options_);
+}
+
+void GaussNewton::run(CountedProblem& problem, Eigen::VectorXd x0, OptimizerResult& result) const {
+  const Eigen::VectorXd& lower = problem.lower();
+  const Eigen::VectorXd& upper = problem.upper();
+  const Eigen::Index n = problem.dimension();
+  const bool levenberg_marquardt = options_.damping == GaussNewtonDamping::levenberg_marquardt;
+
+  Linearization current = linearize(problem, std::move(x0));
+  result.x = current.x;
+  result.summary.final_value = current.value;
+  if (!std::isfinite(current.value)) {
+    result.status = OptimizerStatus::failed;
+    result.message = "the residuals are not finite at x0";
+    return;
+  }
+  double gradient_norm = projected_gradient_norm(current.x, current.gradient, lower, upper);
+  problem.record_iteration(current.x, current.value, gradient_norm, 0.0);
+
+  auto finish = [&](OptimizerStatus status, std::string message) {
+    result.x = current.x;
+    result.status = status;
+    result.message = std::move(message);
+    result.summary.final_value = current.value;
+    result.summary.final_gradient_norm = gradient_norm;
+  };
+  auto out_of_evaluations = [&] { return problem.evaluations() >= options_.max_evaluations; };
+  const std::string evaluation_limit =
+      fmt::format("max_evaluations = {} reached", options_.max_evaluations);
+
+  double lambda = options_.initial_lambda, nu = 2.0;
+  for (int k = 1;; ++k) {
+    if (gradient_norm <= options_.gradient_tolerance)
+      return finish(OptimizerStatus::converged,
+                    fmt::format("gradient norm {:.3g} <= gradient_tolerance {:.3g}", gradient_norm,
+                                options_.gradient_tolerance));
+    if (k > options_.max_iterations)
+      return finish(OptimizerStatus::iteration_limit,
+                    fmt::format("max_iterations = {} reached", options_.max_iterations));
+    if (out_of_evaluations()) return finish(OptimizerStatus::iteration_limit, evaluation_limit);
+
+    const Eigen::VectorXd& x = current.x;
+    const Eigen::VectorXd& g = current.gradient;
+    // Variables at a bound that the gradient pushes outward stay fixed for this step.
+    std::vector<int> free;
+    for (Eigen::Index i = 0; i < n; ++i)
+      if (!((x[i] <= lower[i] && g[i] > 0.0) || (x[i] >= upper[i] && g[i] < 0.0)))
+        free.push_back(static_cast<int>(i));
+
+    Linearization trial;
+    for (;;) {  // until a step is accepted (LM may reject several)
+      Eigen::VectorXd h = model_step(current, free, levenberg_marquardt ? lambda : 0.0);
+      drop_blocked_components(x, lower, upper, h);
+      double dphi0 = g.dot(h);
+      if (!(dphi0 < 0.0)) {
+        // Rank deficiency or a bound spoilt the model step: fall back to projected steepest
+        // descent, scaled to the minimiser of ‖r + α J p‖², α = −gᵀp / (2 ‖J p‖²).
+        h = -g;
+        drop_blocked_components(x, lower, upper, h);
+        const double curvature = (current.J * h).squaredNorm();
+        if (curvature > 0.0) h *= -g.dot(h) / (2.0 * curvature);
+        dphi0 = g.dot(h);
+      }
+      if (!(dphi0 < 0.0))
+        return finish(OptimizerStatus::stalled,
+                      fmt::format("no descent direction at iteration {} (g'h = {:.3g})", k, dphi0));
+      const double alpha_max = max_feasible_step(x, h, lower, upper);
+
+      if (!levenberg_marquardt) {
+        // Backtracking Armijo search from α = 1 (N&W Alg. 3.1).
+        double alpha = std::min(1.0, alpha_max);
+        int evaluations = 0;
+        bool accepted = false;
+        while (!accepted) {
+          if (out_of_evaluations())
+            return finish(OptimizerStatus::iteration_limit, evaluation_limit);
+          if (evaluations >= options_.max_line_search_evaluations)
+            return finish(
+                OptimizerStatus::line_search_failed,
+                fmt::format("no sufficient decrease within {} evaluations at iteration {} "
+                            "(last alpha {:.3g})",
+                            evaluations, k, alpha));
+          trial = linearize(problem, take_step(x, h, alpha, lower, upper));
+          ++evaluations;
+          if (std::isfinite(trial.value) &&
+              trial.value <= current.value + options_.c1 * alpha * dphi0) {
+            accepted = true;
+          } else {
+            // Minimiser of the quadratic through φ(0), φ'(0), φ(α) (N&W eq. 3.58), kept in
+            // [0.1 α, 0.5 α] so the search neither stalls nor shrinks too fast.
+            double next = 0.5 * alpha;
+            const double curvature = trial.value - current.value - dphi0 * alpha;
+            if (std::isfinite(trial.value) && curvature > 0.0)
+              next =
+                  std::clamp(-dphi0 * alpha * alpha / (2.0 * curvature), 0.1 * alpha, 0.5 * alpha);
+            alpha = next;
+          }
+        }
+        LineSearchRecord record;
+        record.iteration = k;
+        record.alpha = alpha;
+        record.phi_0 = current.value;
+        record.dphi_0 = dphi0;
+        record.phi_alpha = trial.value;
+        record.dphi_alpha = trial.gradient.dot(h);
+        record.evaluations = evaluations;
+        record.step_limited = alpha == alpha_max && alpha < 1.0;
+        problem.record_line_search(record);
+        break;
+      }
+
+      // Levenberg–Marquardt: the step truncated at the box, its predicted decrease
+      // m(0) − m(h) = −(gᵀh + ‖J h‖²) for m(h) = ‖r + J h‖², and the gain ratio.
+      const double alpha = std::min(1.0, alpha_max);
+      const Eigen::VectorXd step = alpha * h;
+      const double predicted = -(g.dot(step) + (current.J * step).squaredNorm());
+      trial = linearize(problem, take_step(x, h, alpha, lower, upper));
+      const double gain = (current.value - trial.value) / predicted;
+      if (std::isfinite(trial.value) && predicted > 0.0 && gain > 0.0) {
+        lambda *= std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * gain - 1.0, 3));
+        nu = 2.0;
+        break;
+      }
+      lambda *= nu;
+      nu *= 2.0;
+      if (lambda > options_.max_lambda)
+        return finish(OptimizerStatus::stalled,
+                      fmt::format("damping lambda = {:.3g} exceeded max_lambda = {:.3g} without a "
+                                  "decrease at iteration {}",
+                                  lambda, options_.max_lambda, k));
+      if (out_of_evaluations()) return finish(OptimizerStatus::iteration_limit, evaluation_limit);
+    }
+
+    const double step_length = (trial.x - current.x).lpNorm<Eigen::Infinity>();
+    const Eigen::VectorXd x_previous = current.x;
+    const double f_previous = current.value;
+    current = std::move(trial);
+    gradient_norm = projected_gradient_norm(current.x, current.gradient, lower, upper);
+    problem.record_iteration(current.x, current.value, gradient_norm, step_length);
+    if (auto reason = check_convergence(options_, f_previous, current.value, x_previous, current.x,
+                                        gradient_norm))
+      return finish(OptimizerStatus::converged, *reason);
+  }
+}
+
+}  // namespace twill

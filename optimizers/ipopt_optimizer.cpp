@@ -1,0 +1,367 @@
+#include "optimizers/ipopt_optimizer.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <coin/IpIpoptApplication.hpp>
+#include <coin/IpTNLP.hpp>
+#include <deque>
+#include <limits>
+#include <optional>
+
+namespace twill {
+namespace {
+
+using Ipopt::Index;
+using Ipopt::Number;
+
+constexpr double kIpoptInfinity = 1e19;  // Ipopt's default nlp_{lower,upper}_bound_inf
+constexpr std::size_t kCacheSize = 8;
+
+std::string status_name(Ipopt::ApplicationReturnStatus status) {
+  switch (status) {
+    case Ipopt::Solve_Succeeded:
+      return "Solve_Succeeded";
+    case Ipopt::Solved_To_Acceptable_Level:
+      return "Solved_To_Acceptable_Level";
+    case Ipopt::Infeasible_Problem_Detected:
+      return "Infeasible_Problem_Detected";
+    case Ipopt::Search_Direction_Becomes_Too_Small:
+      return "Search_Direction_Becomes_Too_Small";
+    case Ipopt::Diverging_Iterates:
+      return "Diverging_Iterates";
+    case Ipopt::User_Requested_Stop:
+      return "User_Requested_Stop";
+    case Ipopt::Feasible_Point_Found:
+      return "Feasible_Point_Found";
+    case Ipopt::Maximum_Iterations_Exceeded:
+      return "Maximum_Iterations_Exceeded";
+    case Ipopt::Restoration_Failed:
+      return "Restoration_Failed";
+    case Ipopt::Error_In_Step_Computation:
+      return "Error_In_Step_Computation";
+    case Ipopt::Maximum_CpuTime_Exceeded:
+      return "Maximum_CpuTime_Exceeded";
+    case Ipopt::Not_Enough_Degrees_Of_Freedom:
+      return "Not_Enough_Degrees_Of_Freedom";
+    case Ipopt::Invalid_Problem_Definition:
+      return "Invalid_Problem_Definition";
+    case Ipopt::Invalid_Option:
+      return "Invalid_Option";
+    case Ipopt::Invalid_Number_Detected:
+      return "Invalid_Number_Detected";
+    case Ipopt::Unrecoverable_Exception:
+      return "Unrecoverable_Exception";
+    case Ipopt::NonIpopt_Exception_Thrown:
+      return "NonIpopt_Exception_Thrown";
+    case Ipopt::Insufficient_Memory:
+      return "Insufficient_Memory";
+    case Ipopt::Internal_Error:
+      return "Internal_Error";
+  }
+  return "unknown Ipopt status " + std::to_string(static_cast<int>(status));
+}
+
+OptimizerStatus map_status(Ipopt::ApplicationReturnStatus status) {
+  switch (status) {
+    case Ipopt::Solve_Succeeded:
+    case Ipopt::Solved_To_Acceptable_Level:
+      return OptimizerStatus::converged;
+    case Ipopt::Search_Direction_Becomes_Too_Small:
+      return OptimizerStatus::stalled;
+    case Ipopt::Maximum_Iterations_Exceeded:
+    case Ipopt::Maximum_CpuTime_Exceeded:
+      return OptimizerStatus::iteration_limit;
+    case Ipopt::Restoration_Failed:
+      return OptimizerStatus::line_search_failed;
+    default:
+      return OptimizerStatus::failed;
+  }
+}
+
+// The TNLP seen by Ipopt. Every override is noexcept in effect: guard() catches everything.
+class ProblemTnlp : public Ipopt::TNLP {
+ public:
+  struct Evaluation {
+    Eigen::VectorXd x, gradient;
+    double value = 0.0;
+  };
+  struct Stop {
+    OptimizerStatus status;
+    std::string message;
+  };
+
+  ProblemTnlp(CountedProblem& problem, Eigen::VectorXd x0, const IpoptOptions& options)
+      : problem_(problem), x0_(std::move(x0)), options_(options) {}
+
+  bool get_nlp_info(Index& n, Index& m, Index& nnz_jac_g, Index& nnz_h_lag,
+                    IndexStyleEnum& index_style) override {
+    n = problem_.dimension();
+    m = 0;
+    nnz_jac_g = 0;
+    nnz_h_lag = 0;
+    index_style = C_STYLE;
+    return true;
+  }
+
+  bool get_bounds_info(Index n, Number* x_l, Number* x_u, Index /*m*/, Number* /*g_l*/,
+                       Number* /*g_u*/) override {
+    for (Index i = 0; i < n; ++i) {
+      x_l[i] = std::max(problem_.lower()[i], -kIpoptInfinity);
+      x_u[i] = std::min(problem_.upper()[i], kIpoptInfinity);
+    }
+    return true;
+  }
+
+  bool get_starting_point(Index n, bool init_x, Number* x, bool init_z, Number* /*z_L*/,
+                          Number* /*z_U*/, Index /*m*/, bool init_lambda,
+                          Number* /*lambda*/) override {
+    if (!init_x || init_z || init_lambda) return false;  // no warm start offered
+    std::copy(x0_.data(), x0_.data() + n, x);
+    return true;
+  }
+
+  bool eval_f(Index n, const Number* x, bool /*new_x*/, Number& obj_value) override {
+    return guard([&] {
+      const Evaluation* e = evaluation_at(n, x);
+      if (!e) return false;
+      obj_value = e->value;
+      return true;
+    });
+  }
+
+  bool eval_grad_f(Index n, const Number* x, bool /*new_x*/, Number* grad_f) override {
+    return guard([&] {
+      const Evaluation* e = evaluation_at(n, x);
+      if (!e) return false;
+      std::copy(e->gradient.data(), e->gradient.data() + n, grad_f);
+      latest_gradient_ = *e;
+      return true;
+    });
+  }
+
+  bool eval_g(Index /*n*/, const Number* /*x*/, bool /*new_x*/, Index /*m*/,
+              Number* /*g*/) override {
+    return true;  // no constraints
+  }
+
+  bool eval_jac_g(Index /*n*/, const Number* /*x*/, bool /*new_x*/, Index /*m*/, Index /*nele_jac*/,
+                  Index* /*iRow*/, Index* /*jCol*/, Number* /*values*/) override {
+    return true;  // no constraints, so no Jacobian entries
+  }
+
+  void finalize_solution(Ipopt::SolverReturn /*status*/, Index n, const Number* x,
+                         const Number* /*z_L*/, const Number* /*z_U*/, Index /*m*/,
+                         const Number* /*g*/, const Number* /*lambda*/, Number obj_value,
+                         const Ipopt::IpoptData* /*ip_data*/,
+                         Ipopt::IpoptCalculatedQuantities* /*ip_cq*/) override {
+    guard([&] {
+      final_x_ = Eigen::Map<const Eigen::VectorXd>(x, n);
+      final_value_ = obj_value;
+      return true;
+    });
+  }
+
+  bool intermediate_callback(Ipopt::AlgorithmMode mode, Index iter, Number obj_value,
+                             Number /*inf_pr*/, Number /*inf_du*/, Number /*mu*/, Number /*d_norm*/,
+                             Number /*regularization_size*/, Number /*alpha_du*/,
+                             Number /*alpha_pr*/, Index /*ls_trials*/,
+                             const Ipopt::IpoptData* /*ip_data*/,
+                             Ipopt::IpoptCalculatedQuantities* /*ip_cq*/) override {
+    return guard([&] {
+      // A callback threw, or the evaluation budget is spent: stop as soon as Ipopt lets us.
+      if (!error_.empty() || stop_) return false;
+      if (!latest_gradient_) return true;
+      const Evaluation& at = *latest_gradient_;
+      const double gradient_norm =
+          projected_gradient_norm(at.x, at.gradient, problem_.lower(), problem_.upper());
+      const double step = previous_x_ ? (at.x - *previous_x_).lpNorm<Eigen::Infinity>() : 0.0;
+      problem_.record_iteration(at.x, at.value, gradient_norm, step);
+      const double previous_value = previous_value_;
+      previous_x_ = at.x;
+      previous_value_ = at.value;
+      current_ = at;
+
+      if (gradient_norm <= options_.gradient_tolerance) {
+        stop_ = Stop{OptimizerStatus::converged,
+                     fmt::format("gradient norm {:.3g} <= gradient_tolerance {:.3g}", gradient_norm,
+                                 options_.gradient_tolerance)};
+        return false;
+      }
+      const double change = std::abs(previous_value - obj_value);
+      if (iter > 0 && mode == Ipopt::RegularMode &&
+          change <= options_.function_tolerance *
+                        std::max(std::abs(previous_value), std::abs(obj_value))) {
+        stop_ = Stop{
+            OptimizerStatus::converged,
+            fmt::format("relative function change {:.3g} <= function_tolerance {:.3g}",
+                        change / std::max({std::abs(previous_value), std::abs(obj_value), 1e-300}),
+                        options_.function_tolerance)};
+        return false;
+      }
+      return true;
+    });
+  }
+
+  const std::string& error() const { return error_; }
+  const std::optional<Stop>& stop() const { return stop_; }
+  const std::optional<Eigen::VectorXd>& final_x() const { return final_x_; }
+  double final_value() const { return final_value_; }
+  const std::optional<Evaluation>& current() const { return current_; }
+
+  /// The cached evaluation at x, if any (no new evaluation).
+  const Evaluation* cached(const Eigen::VectorXd& x) const {
+    for (const auto& e : cache_)
+      if (e.x == x) return &e;
+    return nullptr;
+  }
+
+ private:
+  template <class Body>
+  bool guard(Body&& body) {
+    try {
+      return body();
+    } catch (const std::exception& e) {
+      if (error_.empty()) error_ = e.what()[0] ? e.what() : "an exception without a message";
+    } catch (...) {
+      if (error_.empty()) error_ = "an exception not derived from std::exception";
+    }
+    return false;
+  }
+
+  // Value and gradient at x, from the cache or one new evaluation; null when not finite.
+  const Evaluation* evaluation_at(Index n, const Number* x) {
+    const Eigen::Map<const Eigen::VectorXd> xv(x, n);
+    const Evaluation* hit = cached(xv);
+    if (!hit && problem_.evaluations() >= options_.max_evaluations) {
+      if (!stop_)
+        stop_ = Stop{OptimizerStatus::iteration_limit,
+                     fmt::format("max_evaluations = {} reached", options_.max_evaluations)};
+      return nullptr;
+    }
+    if (!hit) {
+      Evaluation e;
+      e.x = xv;
+      e.value = problem_.evaluate(e.x, &e.gradient);
+      cache_.push_front(std::move(e));
+      if (cache_.size() > kCacheSize) cache_.pop_back();
+      hit = &cache_.front();
+    }
+    return std::isfinite(hit->value) ? hit : nullptr;
+  }
+
+  CountedProblem& problem_;
+  Eigen::VectorXd x0_;
+  const IpoptOptions& options_;
+  std::deque<Evaluation> cache_;
+  std::optional<Evaluation> latest_gradient_, current_;
+  std::optional<Eigen::VectorXd> previous_x_;
+  double previous_value_ = std::numeric_limits<double>::quiet_NaN();
+  std::optional<Eigen::VectorXd> final_x_;
+  double final_value_ = std::numeric_limits<double>::quiet_NaN();
+  std::optional<Stop> stop_;
+  std::string error_;
+};
+
+}  // namespace
+
+std::vector<OptionBinding<IpoptOptions>> ipopt_option_bindings() {
+  auto bindings = common_option_bindings<IpoptOptions>();
+  set_option_doc(bindings, "step_tolerance", "not used: Ipopt applies its own tiny-step test");
+  bindings.push_back(integer_option<IpoptOptions>("print_level", &IpoptOptions::print_level, 0, 12,
+                                                  "Ipopt's print_level (0: silent)"));
+  bindings.push_back(integer_option<IpoptOptions>(
+      "limited_memory_max_history", &IpoptOptions::limited_memory_max_history, 1, 1000,
+      "number of L-BFGS correction pairs Ipopt keeps"));
+  bindings.push_back(choice_option<IpoptOptions>("mu_strategy", &IpoptOptions::mu_strategy,
+                                                 {"monotone", "adaptive"},
+                                                 "Ipopt's barrier-parameter update strategy"));
+  bindings.push_back(choice_option<IpoptOptions>(
+      "nlp_scaling_method", &IpoptOptions::nlp_scaling_method, {"gradient-based", "none"},
+      "Ipopt's objective scaling (gradient-based scales f when its gradient exceeds 100)"));
+  return bindings;
+}
+
+bool IpoptOptions::validate(std::string* error) const {
+  return check_options(ipopt_option_bindings(), *this, error);
+}
+
+IpoptOptimizer::IpoptOptimizer(IpoptOptions options) : options_(std::move(options)) {
+  std::string error;
+  if (!options_.validate(&error)) throw InputError({"", 0, ""}, "ipopt: " + error);
+}
+
+OptionValues IpoptOptimizer::resolved_options() const {
+  return option_values(ipopt_option_bindings(), options_);
+}
+
+void IpoptOptimizer::run(CountedProblem& problem, Eigen::VectorXd x0,
+                         OptimizerResult& result) const {
+  Ipopt::SmartPtr<Ipopt::IpoptApplication> app = IpoptApplicationFactory();
+  Ipopt::SmartPtr<Ipopt::OptionsList> ipopt_options = app->Options();
+  // Ipopt requires positive tolerances; a zero gradient_tolerance means "as tight as possible".
+  const double tolerance = std::max(options_.gradient_tolerance, 1e-300);
+  bool options_ok = true;
+  options_ok &= ipopt_options->SetStringValue("sb", "yes");  // no banner
+  options_ok &= ipopt_options->SetIntegerValue("print_level", options_.print_level);
+  options_ok &= ipopt_options->SetStringValue("hessian_approximation", "limited-memory");
+  options_ok &= ipopt_options->SetIntegerValue("limited_memory_max_history",
+                                               options_.limited_memory_max_history);
+  options_ok &= ipopt_options->SetNumericValue("tol", tolerance);
+  options_ok &= ipopt_options->SetNumericValue("dual_inf_tol", tolerance);
+  // No "acceptable" early exit: tolerances mean what the options say.
+  options_ok &= ipopt_options->SetIntegerValue("acceptable_iter", 0);
+  options_ok &= ipopt_options->SetIntegerValue("max_iter", options_.max_iterations);
+  // Ipopt relaxes bounds by 1e-8 (relative) by default; twill's problems may be undefined
+  // outside their box (e.g. a negative stiffness), so evaluations stay inside it.
+  options_ok &= ipopt_options->SetNumericValue("bound_relax_factor", 0.0);
+  options_ok &= ipopt_options->SetStringValue("mu_strategy", options_.mu_strategy);
+  options_ok &= ipopt_options->SetStringValue("nlp_scaling_method", options_.nlp_scaling_method);
+  const Ipopt::ApplicationReturnStatus init = app->Initialize();
+  if (!options_ok || init != Ipopt::Solve_Succeeded) {
+    result.status = OptimizerStatus::failed;
+    result.message =
+        "Ipopt rejected its options or failed to initialise (" + status_name(init) + ")";
+    return;
+  }
+
+  Ipopt::SmartPtr<ProblemTnlp> tnlp = new ProblemTnlp(problem, x0, options_);
+  const Ipopt::ApplicationReturnStatus status = app->OptimizeTNLP(Ipopt::GetRawPtr(tnlp));
+
+  if (!tnlp->error().empty()) {
+    result.status = OptimizerStatus::failed;
+    result.message = "the problem threw: " + tnlp->error();
+    if (problem.has_best()) {
+      result.x = problem.best_x();
+      result.summary.final_value = problem.best_value();
+    }
+    return;
+  }
+  if (tnlp->stop()) {
+    result.status = tnlp->stop()->status;
+    result.message = tnlp->stop()->message;
+    if (tnlp->current()) {
+      result.x = tnlp->current()->x;
+    } else if (problem.has_best()) {
+      result.x = problem.best_x();
+    }
+  } else {
+    result.status = map_status(status);
+    result.message = "Ipopt: " + status_name(status);
+    if (tnlp->final_x()) {
+      result.x = *tnlp->final_x();
+    } else if (problem.has_best()) {
+      result.x = problem.best_x();
+    }
+  }
+  if (const auto* at = tnlp->cached(result.x)) {
+    result.summary.final_value = at->value;
+    result.summary.final_gradient_norm =
+        projected_gradient_norm(at->x, at->gradient, problem.lower(), problem.upper());
+  } else if (tnlp->final_x() && result.x == *tnlp->final_x()) {
+    result.summary.final_value = tnlp->final_value();
+  }
+}
+
+}  // namespace twill

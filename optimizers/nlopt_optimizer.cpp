@@ -1,0 +1,259 @@
+#include "optimizers/nlopt_optimizer.hpp"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <limits>
+#include <nlopt.hpp>
+#include <optional>
+
+namespace twill {
+namespace {
+
+struct Algorithm {
+  const char* name;
+  nlopt::algorithm id;
+};
+
+constexpr Algorithm kAlgorithms[] = {
+    {"LD_LBFGS", nlopt::LD_LBFGS},
+    {"LD_SLSQP", nlopt::LD_SLSQP},
+    {"LD_MMA", nlopt::LD_MMA},
+    {"LD_CCSAQ", nlopt::LD_CCSAQ},
+    {"LD_TNEWTON_PRECOND_RESTART", nlopt::LD_TNEWTON_PRECOND_RESTART},
+    {"LD_VAR2", nlopt::LD_VAR2},
+    {"LN_BOBYQA", nlopt::LN_BOBYQA},
+    {"LN_COBYLA", nlopt::LN_COBYLA},
+    {"LN_NELDERMEAD", nlopt::LN_NELDERMEAD},
+    {"LN_SBPLX", nlopt::LN_SBPLX},
+};
+
+nlopt::algorithm algorithm_id(const std::string& name) {
+  for (const auto& a : kAlgorithms)
+    if (name == a.name) return a.id;
+  // Unreachable for validated options.
+  throw std::logic_error("unsupported NLopt algorithm '" + name + "'");
+}
+
+// The objective NLopt calls. Catches everything: NLopt's C code must never see an exception
+// other than nlopt::forced_stop, which its C++ wrapper turns into a graceful stop.
+class Objective {
+ public:
+  struct Stop {
+    OptimizerStatus status;
+    std::string message;
+    Eigen::VectorXd x;
+    double value;
+    double gradient_norm;
+  };
+
+  Objective(CountedProblem& problem, const NloptOptions& options)
+      : problem_(problem),
+        options_(options),
+        gradient_based_(options.algorithm.rfind("LD_", 0) == 0) {}
+
+  static double call(const std::vector<double>& x, std::vector<double>& gradient, void* self) {
+    return static_cast<Objective*>(self)->evaluate(x, gradient);
+  }
+
+  const std::string& error() const { return error_; }
+  const std::optional<Stop>& stop() const { return stop_; }
+  bool has_best() const { return best_x_.size() > 0; }
+  const Eigen::VectorXd& best_x() const { return best_x_; }
+  double best_value() const { return best_value_; }
+  double best_gradient_norm() const { return best_gradient_norm_; }
+
+ private:
+  double evaluate(const std::vector<double>& x, std::vector<double>& gradient) {
+    try {
+      // NLopt's maxeval may let one more evaluation through (LD_LBFGS does); the budget is a
+      // hard cap here, as for every optimiser.
+      if (problem_.evaluations() >= options_.max_evaluations)
+        stop_here(OptimizerStatus::iteration_limit,
+                  fmt::format("max_evaluations = {} reached", options_.max_evaluations), best_x_,
+                  best_value_, best_gradient_norm_);
+      const Eigen::VectorXd xv =
+          Eigen::Map<const Eigen::VectorXd>(x.data(), static_cast<Eigen::Index>(x.size()));
+      // Gradient-based algorithms (SLSQP) sometimes ask for the value alone; the gradient is
+      // computed anyway, as it is cheap next to the value in twill (core/problem.hpp), and it
+      // lets every improving point report its gradient norm.
+      Eigen::VectorXd g;
+      const double f = problem_.evaluate(xv, gradient_based_ ? &g : nullptr);
+      if (!std::isfinite(f))
+        stop_here(OptimizerStatus::failed, "evaluation failed (non-finite value) at a trial point",
+                  xv, f, std::numeric_limits<double>::quiet_NaN());
+      double gradient_norm = std::numeric_limits<double>::quiet_NaN();
+      if (gradient_based_) {
+        if (!gradient.empty()) Eigen::Map<Eigen::VectorXd>(gradient.data(), g.size()) = g;
+        gradient_norm = projected_gradient_norm(xv, g, problem_.lower(), problem_.upper());
+      }
+      if (!has_best() || f < best_value_) {
+        const double step = has_best() ? (xv - best_x_).lpNorm<Eigen::Infinity>() : 0.0;
+        best_x_ = xv;
+        best_value_ = f;
+        best_gradient_norm_ = gradient_norm;
+        problem_.record_iteration(xv, f, gradient_norm, step);
+      }
+      if (gradient_norm <= options_.gradient_tolerance)
+        stop_here(OptimizerStatus::converged,
+                  fmt::format("gradient norm {:.3g} <= gradient_tolerance {:.3g}", gradient_norm,
+                              options_.gradient_tolerance),
+                  xv, f, gradient_norm);
+      return f;
+    } catch (const nlopt::forced_stop&) {
+      throw;
+    } catch (const std::exception& e) {
+      error_ = e.what()[0] ? e.what() : "an exception without a message";
+    } catch (...) {
+      error_ = "an exception not derived from std::exception";
+    }
+    throw nlopt::forced_stop();
+  }
+
+  [[noreturn]] void stop_here(OptimizerStatus status, std::string message, const Eigen::VectorXd& x,
+                              double value, double gradient_norm) {
+    stop_ = Stop{status, std::move(message), x, value, gradient_norm};
+    throw nlopt::forced_stop();
+  }
+
+  CountedProblem& problem_;
+  const NloptOptions& options_;
+  bool gradient_based_;
+  std::string error_;
+  std::optional<Stop> stop_;
+  Eigen::VectorXd best_x_;
+  double best_value_ = std::numeric_limits<double>::quiet_NaN();
+  double best_gradient_norm_ = std::numeric_limits<double>::quiet_NaN();
+};
+
+}  // namespace
+
+std::vector<std::string> supported_nlopt_algorithms() {
+  std::vector<std::string> names;
+  for (const auto& a : kAlgorithms) names.emplace_back(a.name);
+  return names;
+}
+
+std::vector<OptionBinding<NloptOptions>> nlopt_option_bindings() {
+  constexpr double inf = std::numeric_limits<double>::infinity();
+  auto bindings = common_option_bindings<NloptOptions>();
+  set_option_doc(bindings, "max_iterations",
+                 "not used: NLopt has no iterations (max_evaluations is the budget)");
+  bindings.push_back(choice_option<NloptOptions>("algorithm", &NloptOptions::algorithm,
+                                                 supported_nlopt_algorithms(),
+                                                 "the NLopt algorithm, by its NLopt name"));
+  bindings.push_back(real_option<NloptOptions>(
+      "initial_step", &NloptOptions::initial_step, 0.0, true, inf, false,
+      "initial step of derivative-free algorithms in units of x (0: NLopt's choice)"));
+  bindings.push_back(integer_option<NloptOptions>(
+      "vector_storage", &NloptOptions::vector_storage, 0, 1000,
+      "stored vectors of LD_LBFGS / LD_VAR2 / LD_TNEWTON (0: NLopt's choice)"));
+  return bindings;
+}
+
+bool NloptOptions::validate(std::string* error) const {
+  // An unknown algorithm fails the choice check, whose message lists the supported names.
+  return check_options(nlopt_option_bindings(), *this, error);
+}
+
+NloptOptimizer::NloptOptimizer(NloptOptions options) : options_(std::move(options)) {
+  std::string error;
+  if (!options_.validate(&error)) throw InputError({"", 0, ""}, "nlopt: " + error);
+}
+
+OptionValues NloptOptimizer::resolved_options() const {
+  return option_values(nlopt_option_bindings(), options_);
+}
+
+void NloptOptimizer::run(CountedProblem& problem, Eigen::VectorXd x0,
+                         OptimizerResult& result) const {
+  const auto n = static_cast<unsigned>(problem.dimension());
+  nlopt::opt opt(algorithm_id(options_.algorithm), n);
+  const auto as_vector = [](const Eigen::VectorXd& v) {
+    return std::vector<double>(v.data(), v.data() + v.size());
+  };
+  if (problem.bounded()) {
+    opt.set_lower_bounds(as_vector(problem.lower()));
+    opt.set_upper_bounds(as_vector(problem.upper()));
+  }
+  opt.set_ftol_rel(options_.function_tolerance);
+  opt.set_xtol_rel(options_.step_tolerance);
+  opt.set_maxeval(options_.max_evaluations);
+  if (options_.initial_step > 0.0) opt.set_initial_step(options_.initial_step);
+  if (options_.vector_storage > 0)
+    opt.set_vector_storage(static_cast<unsigned>(options_.vector_storage));
+
+  Objective objective(problem, options_);
+  opt.set_min_objective(&Objective::call, &objective);
+
+  std::vector<double> x = as_vector(x0);
+  double value = 0.0;
+  std::optional<nlopt::result> code;
+  std::string library_error;
+  bool roundoff_limited = false;
+  try {
+    code = opt.optimize(x, value);
+  } catch (const nlopt::forced_stop&) {
+    // Our objective asked for it; objective.stop() or objective.error() says why.
+  } catch (const nlopt::roundoff_limited&) {
+    roundoff_limited = true;
+  } catch (const std::exception& e) {
+    library_error = e.what();
+  }
+
+  if (objective.has_best()) {
+    result.x = objective.best_x();
+    result.summary.final_value = objective.best_value();
+    result.summary.final_gradient_norm = objective.best_gradient_norm();
+  }
+  if (!objective.error().empty()) {
+    result.status = OptimizerStatus::failed;
+    result.message = "the problem threw: " + objective.error();
+  } else if (const auto& stop = objective.stop()) {
+    result.status = stop->status;
+    result.message = stop->message;
+    if (stop->status != OptimizerStatus::failed) {
+      result.x = stop->x;
+      result.summary.final_value = stop->value;
+      result.summary.final_gradient_norm = stop->gradient_norm;
+    }
+  } else if (roundoff_limited) {
+    result.status = OptimizerStatus::stalled;
+    result.message = "NLopt " + options_.algorithm + ": halted by round-off";
+  } else if (!library_error.empty() || !code) {
+    result.status = OptimizerStatus::failed;
+    result.message = "NLopt " + options_.algorithm + " failed: " +
+                     (library_error.empty() ? std::string("forced stop") : library_error);
+  } else {
+    switch (*code) {
+      case nlopt::SUCCESS:
+      case nlopt::STOPVAL_REACHED:
+        result.status = OptimizerStatus::converged;
+        result.message = "NLopt " + options_.algorithm + ": success";
+        break;
+      case nlopt::FTOL_REACHED:
+        result.status = OptimizerStatus::converged;
+        result.message =
+            fmt::format("NLopt {}: relative function change <= function_tolerance {:.3g}",
+                        options_.algorithm, options_.function_tolerance);
+        break;
+      case nlopt::XTOL_REACHED:
+        result.status = OptimizerStatus::converged;
+        result.message = fmt::format("NLopt {}: relative step <= step_tolerance {:.3g}",
+                                     options_.algorithm, options_.step_tolerance);
+        break;
+      case nlopt::MAXEVAL_REACHED:
+      case nlopt::MAXTIME_REACHED:
+        result.status = OptimizerStatus::iteration_limit;
+        result.message = fmt::format("max_evaluations = {} reached", options_.max_evaluations);
+        break;
+      default:
+        result.status = OptimizerStatus::failed;
+        result.message =
+            fmt::format("NLopt {} returned code {}", options_.algorithm, static_cast<int>(*code));
+        break;
+    }
+  }
+}
+
+}  // namespace twill

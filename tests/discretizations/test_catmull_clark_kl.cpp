@@ -1,0 +1,618 @@
+// Tests of the Catmull–Clark Kirchhoff–Love discretisation at physical canvas sizes
+// (L = 75 mm, W = 50 mm, τ = 0.45 mm, a11 = 3e7 Pa, …, density 0.294 kg/m²) on small meshes.
+// Every patch of a rectangular grid is a regular B-spline patch (no Gregory patches), so the
+// derivative checks cover exactly the patch types this discretisation can produce.
+//
+// Scales: forces are O(1–100 N) and the bending stiffness is ~1e-7 of the stretching one, so
+// finite-difference steps are relative to the strip length (positions) or to each parameter,
+// and errors are relative to the size of the derivative being checked. The bending kernel is
+// checked on its own, where it is not drowned by membrane terms, in
+// test_catmull_clark_kl_kernel.cpp.
+#include <gtest/gtest.h>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <random>
+
+#include "core/input_error.hpp"
+#include "core/material_law.hpp"
+#include "discretizations/catmull_clark_kl/catmull_clark_kl.hpp"
+#include "discretizations/catmull_clark_kl/gauss_legendre.hpp"
+#include "tests/support/finite_difference.hpp"
+
+namespace twill {
+namespace {
+
+using Eigen::Vector2d;
+using Eigen::Vector3d;
+using Eigen::VectorXd;
+using testing::check_directional_derivative;
+
+constexpr double kLength = 0.075, kWidth = 0.050;
+
+StripSpec small_strip(double angle_deg, int across = 3, int along = 4) {
+  StripSpec s;
+  s.length_m = kLength;
+  s.width_m = kWidth;
+  s.cells_across = across;
+  s.cells_along = along;
+  s.angle_deg = angle_deg;
+  return s;
+}
+
+MaterialParameters canvas_stvk() {
+  MaterialParameters p;
+  p.density_kg_m2 = 0.294;
+  p.thickness_m = 0.45e-3;
+  p.a11_Pa = 3e7;
+  p.a22_Pa = 2.2e7;
+  p.a12_Pa = 1.1e7;
+  p.G12_Pa = 4e5;
+  p.cutoffs = Cutoffs{std::nullopt, std::nullopt, std::nullopt, std::nullopt, std::nullopt};
+  return p;
+}
+
+/// Degree-2 curves and a validity box that the distorted state leaves (compression below
+/// E_min = 0 and stretch above the maxima).
+MaterialParameters canvas_nonlinear() {
+  MaterialParameters p = canvas_stvk();
+  p.eta1 = Curve{{0.6, 0.4}, {2.5, 6.0}};
+  p.eta3 = Curve{{1.3, -0.3}, {3.0, 0.5}};
+  p.eta4 = Curve{{0.5, 0.5}, {4.0, 1.5}};
+  p.cutoffs.E11_min = 0.0;
+  p.cutoffs.E11_max = 0.03;
+  p.cutoffs.E22_min = 0.0;
+  p.cutoffs.E22_max = 0.04;
+  p.cutoffs.E12_max = 0.02;
+  return p;
+}
+
+/// Rest positions plus a smooth displacement: stretch along x, contraction across, shear,
+/// and an out-of-plane bulge (strains of a few percent, curvature ~10 /m).
+VectorXd distorted_state(const CatmullClarkKL& d) {
+  VectorXd q = d.rest_positions();
+  for (int i = 0; i < d.num_nodes(); ++i) {
+    const double x = q[3 * i], y = q[3 * i + 1];
+    q[3 * i] += 0.04 * x + 0.002 * std::sin(M_PI * x / kLength) * std::cos(M_PI * y / kWidth) + 0.01 * y;
+    q[3 * i + 1] += 0.005 * y + 0.001 * std::sin(2 * M_PI * x / kLength);
+    q[3 * i + 2] += 0.004 * std::sin(M_PI * x / kLength) * (1.0 + 0.3 * y / kWidth) +
+                    0.001 * std::cos(M_PI * y / kWidth);
+  }
+  return q;
+}
+
+/// A smooth random direction (a sum of random low modes per component) plus a little noise,
+/// scaled by the strip length.
+VectorXd smooth_direction(const CatmullClarkKL& d, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+  double c[3][4];
+  for (auto& row : c)
+    for (double& v : row) v = uniform(rng);
+  VectorXd v(d.num_dofs());
+  const VectorXd& X = d.rest_positions();
+  for (int i = 0; i < d.num_nodes(); ++i)
+    for (int k = 0; k < 3; ++k) {
+      const double x = X[3 * i] / kLength, y = X[3 * i + 1] / kWidth;
+      v[3 * i + k] = kLength * (c[k][0] * std::sin(M_PI * x) + c[k][1] * std::cos(M_PI * y) +
+                                c[k][2] * x * y + 0.1 * c[k][3] * uniform(rng));
+    }
+  return v;
+}
+
+Eigen::Matrix3d material_frame(double angle_deg) {
+  const double t = angle_deg * M_PI / 180.0;
+  Eigen::Matrix3d D = Eigen::Matrix3d::Zero();
+  D.col(0) << -std::sin(t), std::cos(t), 0;  // d1 warp
+  D.col(1) << std::cos(t), std::sin(t), 0;   // d2 weft
+  D(2, 2) = 1.0;
+  return D;
+}
+
+CatmullClarkKLOptions two_threads() {
+  CatmullClarkKLOptions o;
+  o.threads = 2;
+  return o;
+}
+
+/// Orthotropic strain (Ẽ11, Ẽ22, |Ẽ12|) at every through-thickness point of every Gauss
+/// point: the arguments at which the law is evaluated.
+std::array<std::vector<double>, 3> law_arguments(const CatmullClarkKL& d, const VectorXd& q) {
+  const GaussLegendreRule rule = GaussLegendreRule::make(d.options().thickness_points);
+  const double h = 0.5 * d.parameters().thickness_m;
+  std::array<std::vector<double>, 3> values;
+  for (const auto& point : d.quadrature_strains(q))
+    for (double s : rule.nodes) {
+      const Vector3d e = point.membrane - h * s * point.bending;
+      values[0].push_back(e[0]);
+      values[1].push_back(e[1]);
+      values[2].push_back(std::abs(e[2]));
+    }
+  return values;
+}
+
+/// Cutoffs placed in the widest gaps of the law arguments at q (lower bounds among the lower
+/// third of the values, upper bounds among the upper third): many points lie outside the
+/// box, many inside, and none within `margin` of a box face. ψ is only C² across a face, so
+/// a central difference of the gradient whose stencil crosses one loses an order; with the
+/// cutoffs in gaps, a step that moves no argument by more than `margin` stays smooth.
+struct CutoffDesign {
+  Cutoffs cutoffs;
+  double margin = 0.0;
+};
+
+CutoffDesign cutoffs_in_gaps(const std::array<std::vector<double>, 3>& arguments) {
+  CutoffDesign design;
+  design.margin = std::numeric_limits<double>::infinity();
+  auto widest_gap = [&](std::vector<double> v, double from, double to) {
+    std::sort(v.begin(), v.end());
+    const auto first = static_cast<size_t>(from * static_cast<double>(v.size()));
+    const auto last = static_cast<size_t>(to * static_cast<double>(v.size()));
+    double best = 0.0, at = 0.0;
+    for (size_t k = first; k < last; ++k)
+      if (v[k + 1] - v[k] > best) {
+        best = v[k + 1] - v[k];
+        at = 0.5 * (v[k] + v[k + 1]);
+      }
+    design.margin = std::min(design.margin, 0.5 * best);
+    return at;
+  };
+  design.cutoffs.E11_min = widest_gap(arguments[0], 0.05, 0.35);
+  design.cutoffs.E11_max = widest_gap(arguments[0], 0.65, 0.95);
+  design.cutoffs.E22_min = widest_gap(arguments[1], 0.05, 0.35);
+  design.cutoffs.E22_max = widest_gap(arguments[1], 0.65, 0.95);
+  design.cutoffs.E12_max = widest_gap(arguments[2], 0.55, 0.95);
+  return design;
+}
+
+/// Largest change of any law argument between two states.
+double largest_argument_change(const CatmullClarkKL& d, const VectorXd& q1, const VectorXd& q2) {
+  const auto a = law_arguments(d, q1), b = law_arguments(d, q2);
+  double change = 0.0;
+  for (int c = 0; c < 3; ++c)
+    for (size_t k = 0; k < a[static_cast<size_t>(c)].size(); ++k)
+      change = std::max(change, std::abs(a[static_cast<size_t>(c)][k] - b[static_cast<size_t>(c)][k]));
+  return change;
+}
+
+TEST(CatmullClarkKLOptions, ValidateNamesTheOffendingField) {
+  EXPECT_EQ(CatmullClarkKLOptions{}.validate(), "");
+  auto message_for = [](auto mutate) {
+    CatmullClarkKLOptions o;
+    mutate(o);
+    return o.validate();
+  };
+  EXPECT_NE(message_for([](auto& o) { o.gauss_points_per_direction = 0; }).find("gauss_points_per_direction"), std::string::npos);
+  EXPECT_NE(message_for([](auto& o) { o.thickness_points = 1; }).find("thickness_points"), std::string::npos);
+  EXPECT_NE(message_for([](auto& o) { o.threads = -1; }).find("threads"), std::string::npos);
+  EXPECT_NE(message_for([](auto& o) { o.surface_samples_per_face = 0; }).find("surface_samples_per_face"), std::string::npos);
+  CatmullClarkKLOptions bad;
+  bad.thickness_points = 1;
+  try {
+    CatmullClarkKL d(small_strip(0), canvas_stvk(), bad);
+    FAIL() << "invalid options accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.where().key, "thickness_points");
+  }
+  StripSpec strip = small_strip(0);
+  strip.cells_across = 0;
+  try {
+    CatmullClarkKL d(strip, canvas_stvk());
+    FAIL() << "invalid strip accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.where().key, "cells_across");
+  }
+}
+
+TEST(CatmullClarkKL, MeshLayoutAndRestState) {
+  const CatmullClarkKL d(small_strip(90), canvas_stvk());
+  EXPECT_EQ(d.name(), "catmull-clark-kl");
+  EXPECT_EQ(d.num_nodes(), 5 * 4);
+  EXPECT_EQ(d.num_faces(), 12);
+  EXPECT_EQ(d.num_quadrature_points(), 12 * 16);
+  VectorXd g;
+  SparseMatrix H;
+  EXPECT_EQ(d.energy(d.rest_positions(), &g, &H), 0.0);  // a = A, b = B bit for bit
+  EXPECT_EQ(g.cwiseAbs().maxCoeff(), 0.0);
+  // At rest the Hessian is the small-strain stiffness: positive semi-definite with exactly
+  // the six rigid motions as zero modes (no spurious zero-energy mode of the quadrature).
+  // Bending eigenvalues are ~(τ/h)² ~ 1e-4 of the membrane ones, far above round-off.
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen((Eigen::MatrixXd(H)));
+  const VectorXd& lambda = eigen.eigenvalues();
+  const double largest = lambda.cwiseAbs().maxCoeff();
+  for (int k = 0; k < 6; ++k) EXPECT_LT(std::abs(lambda[k]), 1e-12 * largest) << k;
+  EXPECT_GT(lambda[6], 1e-8 * largest);
+  EXPECT_THROW(d.energy(VectorXd::Zero(7), nullptr, nullptr), std::invalid_argument);
+}
+
+TEST(CatmullClarkKL, PatchTestUniformStretchIsExactAtEveryAngle) {
+  for (double angle : {0.0, 22.5, 45.0, 67.5, 90.0}) {
+    const MaterialParameters parameters = canvas_nonlinear();
+    const CatmullClarkKL d(small_strip(angle), parameters, two_threads());
+    // In-plane affine map: stretch, contraction, shear, then a rigid rotation about z.
+    Eigen::Matrix2d F;
+    F << 1.03, 0.012, -0.004, 0.985;
+    const Eigen::Matrix2d R = Eigen::Rotation2Dd(0.3).toRotationMatrix();
+    const Eigen::Matrix2d RF = R * F;
+    VectorXd q = d.rest_positions();
+    for (int i = 0; i < d.num_nodes(); ++i) {
+      q.segment<2>(3 * i) = RF * q.segment<2>(3 * i) + Vector2d(0.01, -0.02);
+      q[3 * i + 2] = 0.003;
+    }
+    Eigen::Matrix3d E = Eigen::Matrix3d::Zero();
+    E.topLeftCorner<2, 2>() = 0.5 * (F.transpose() * F - Eigen::Matrix2d::Identity());
+    const Eigen::Matrix3d D = material_frame(angle);
+    const Eigen::Matrix3d Et = D.transpose() * E * D;
+    const Vector3 expected(Et(0, 0), Et(1, 1), Et(0, 1));
+
+    for (const auto& point : d.quadrature_strains(q)) {
+      EXPECT_LT((point.membrane - expected).cwiseAbs().maxCoeff(), 1e-14) << "angle " << angle;
+      EXPECT_LT(point.bending.cwiseAbs().maxCoeff(), 1e-10);  // [1/m]; κ = 0 up to round-off
+    }
+    const double psi = MaterialLaw(parameters).energy_density(expected);
+    const double exact = kLength * kWidth * parameters.thickness_m * psi;
+    EXPECT_NEAR(d.energy(q, nullptr, nullptr), exact, 1e-12 * exact) << "angle " << angle;
+  }
+}
+
+TEST(CatmullClarkKL, RigidMotionInvariance) {
+  const CatmullClarkKL d(small_strip(30), canvas_nonlinear(), two_threads());
+  const VectorXd q = distorted_state(d);
+  const Eigen::Matrix3d R =
+      Eigen::AngleAxisd(0.7, Vector3d(0.3, -0.5, 0.8).normalized()).toRotationMatrix();
+  const Vector3d t(0.02, -0.013, 0.4);
+  VectorXd moved(q.size());
+  for (int i = 0; i < d.num_nodes(); ++i) moved.segment<3>(3 * i) = R * q.segment<3>(3 * i) + t;
+  VectorXd g, g_moved;
+  const double e = d.energy(q, &g, nullptr);
+  const double e_moved = d.energy(moved, &g_moved, nullptr);
+  EXPECT_GT(e, 0.0);
+  EXPECT_NEAR(e_moved, e, 1e-12 * e);
+  // Forces rotate with the body.
+  double worst = 0.0;
+  for (int i = 0; i < d.num_nodes(); ++i)
+    worst = std::max(worst, (g_moved.segment<3>(3 * i) - R * g.segment<3>(3 * i)).norm());
+  EXPECT_LT(worst, 1e-11 * g.cwiseAbs().maxCoeff());
+}
+
+class CatmullClarkKLDerivatives : public ::testing::Test {
+ protected:
+  CatmullClarkKLDerivatives()
+      : d_(small_strip(30), canvas_nonlinear(), two_threads()), q_(distorted_state(d_)) {
+    design_ = cutoffs_in_gaps(law_arguments(d_, q_));
+    MaterialParameters p = d_.parameters();
+    p.cutoffs = design_.cutoffs;
+    d_.set_parameters(p);
+  }
+
+  /// FD step along q: no law argument moves by more than half the margin over the stencil.
+  static constexpr double kStep = 2e-5;
+
+  CatmullClarkKL d_;
+  VectorXd q_;
+  CutoffDesign design_;
+};
+
+TEST_F(CatmullClarkKLDerivatives, StateLeavesTheCutoffBoxAwayFromItsFaces) {
+  const Cutoffs& box = d_.parameters().cutoffs;
+  int outside = 0, inside = 0;
+  for (const auto& point : d_.quadrature_strains(q_)) {
+    const Vector3d& e = point.membrane;
+    const bool out = e[0] < *box.E11_min || e[0] > *box.E11_max || e[1] < *box.E22_min ||
+                     e[1] > *box.E22_max || std::abs(e[2]) > *box.E12_max;
+    (out ? outside : inside)++;
+  }
+  EXPECT_GT(outside, 0);
+  EXPECT_GT(inside, 0);
+  // Every box face has law arguments on both sides, at least `margin` away.
+  const auto arguments = law_arguments(d_, q_);
+  auto count_below = [](const std::vector<double>& v, double bound) {
+    return std::count_if(v.begin(), v.end(), [&](double x) { return x < bound; });
+  };
+  for (auto [c, bound] : {std::pair{0, *box.E11_min}, std::pair{0, *box.E11_max},
+                          std::pair{1, *box.E22_min}, std::pair{1, *box.E22_max},
+                          std::pair{2, *box.E12_max}}) {
+    const auto& v = arguments[static_cast<size_t>(c)];
+    EXPECT_GT(count_below(v, bound), 0);
+    EXPECT_LT(count_below(v, bound), static_cast<long>(v.size()));
+    for (double x : v) EXPECT_GE(std::abs(x - bound), 0.999 * design_.margin);
+  }
+  EXPECT_GT(design_.margin, 1e-4);
+  EXPECT_LT(*box.E11_min, 0.0);  // compression outside the data, as with the paper's E_min = 0
+}
+
+TEST_F(CatmullClarkKLDerivatives, GradientMatchesFiniteDifferencesAtSecondOrder) {
+  VectorXd g;
+  d_.energy(q_, &g, nullptr);
+  for (unsigned seed : {11u, 12u}) {
+    const VectorXd v = smooth_direction(d_, seed);
+    auto value = [&](const VectorXd& x) -> VectorXd {
+      return VectorXd::Constant(1, d_.energy(x, nullptr, nullptr));
+    };
+    const auto check = check_directional_derivative(value, q_, v, VectorXd::Constant(1, g.dot(v)),
+                                                    1e-3, 4, 1e-6);
+    EXPECT_TRUE(check.ok) << check.report;
+    EXPECT_FALSE(check.roundoff_only) << check.report;
+  }
+}
+
+TEST_F(CatmullClarkKLDerivatives, HessianMatchesFiniteDifferencesOfTheGradient) {
+  SparseMatrix H;
+  d_.energy(q_, nullptr, &H);
+  const Eigen::MatrixXd dense = H;
+  EXPECT_LT((dense - dense.transpose()).cwiseAbs().maxCoeff(), 1e-12 * dense.cwiseAbs().maxCoeff());
+  for (unsigned seed : {21u, 22u}) {
+    const VectorXd v = smooth_direction(d_, seed);
+    auto gradient = [&](const VectorXd& x) -> VectorXd {
+      VectorXd g;
+      d_.energy(x, &g, nullptr);
+      return g;
+    };
+    ASSERT_LT(largest_argument_change(d_, q_, q_ + kStep * v), 0.5 * design_.margin);
+    ASSERT_LT(largest_argument_change(d_, q_, q_ - kStep * v), 0.5 * design_.margin);
+    const auto check = check_directional_derivative(gradient, q_, v, H * v, kStep, 3, 1e-6);
+    EXPECT_TRUE(check.ok) << check.report;
+    EXPECT_FALSE(check.roundoff_only) << check.report;
+  }
+  // Every entry, not only directions: one FD column per dof against the matrix (tolerance
+  // relative to the largest stiffness, at a step inside the second-order range above).
+  const double h = 0.5 * kStep;  // unit steps: smaller than kStep · |v| (v ~ strip length)
+  auto gradient_at = [&](const VectorXd& x) {
+    VectorXd g;
+    d_.energy(x, &g, nullptr);
+    return g;
+  };
+  double worst = 0.0;
+  for (int column = 0; column < d_.num_dofs(); ++column) {
+    VectorXd plus = q_, minus = q_;
+    plus[column] += h;
+    minus[column] -= h;
+    const VectorXd fd = (gradient_at(plus) - gradient_at(minus)) / (2 * h);
+    worst = std::max(worst, (fd - dense.col(column)).cwiseAbs().maxCoeff());
+  }
+  EXPECT_LT(worst, 1e-6 * dense.cwiseAbs().maxCoeff());
+}
+
+TEST_F(CatmullClarkKLDerivatives, ParameterJacobianMatchesFiniteDifferencesForEveryParameter) {
+  d_.set_gravity(Vector3d(0.4, -0.3, -9.81));  // so that density enters the gradient
+  Eigen::MatrixXd dk;
+  d_.gradient_parameter_jacobian(q_, &dk);
+  const MaterialParameters p0 = d_.parameters();
+  const VectorXd k0 = p0.to_flat();
+  const auto names = p0.parameter_names();
+  ASSERT_EQ(dk.rows(), d_.num_dofs());
+  ASSERT_EQ(dk.cols(), k0.size());
+  ASSERT_EQ(k0.size(), 6 + 3 * 3);  // degree-2 curves: one mu and two alphas each
+  for (int column = 0; column < k0.size(); ++column) {
+    auto gradient_at = [&](const VectorXd& k) -> VectorXd {
+      MaterialParameters p = p0;
+      p.set_from_flat(k);
+      d_.set_parameters(p);
+      VectorXd g;
+      d_.energy(q_, &g, nullptr);
+      return g;
+    };
+    const std::string& name = names[static_cast<size_t>(column)];
+    const VectorXd unit = VectorXd::Unit(k0.size(), column);
+    // The gradient is linear in density, the stiffnesses and the μ's (central differences
+    // are then exact up to round-off); it depends on τ and the α's nonlinearly. An α acts
+    // through (1 + Ẽ²)^α with Ẽ² ~ 1e-3, so its third derivative is tiny: a step of 0.4 α
+    // is still in the asymptotic range and keeps the truncation error above round-off.
+    const bool linear = name.find(".mu[") != std::string::npos || column == FlatLayout::kDensity ||
+                        (column >= FlatLayout::kA11 && column <= FlatLayout::kG12);
+    const bool alpha = name.find(".alpha[") != std::string::npos;
+    const double h0 = (alpha ? 0.4 : 1e-2) * std::abs(k0[column]);
+    if (column == FlatLayout::kThickness) {  // τ moves the through-thickness points
+      MaterialParameters thick = p0;
+      thick.thickness_m += h0;
+      const auto before = law_arguments(d_, q_);
+      const auto after = law_arguments(CatmullClarkKL(d_.strip(), thick), q_);
+      for (int c = 0; c < 3; ++c)
+        for (size_t k = 0; k < before[static_cast<size_t>(c)].size(); ++k)
+          ASSERT_LT(std::abs(after[static_cast<size_t>(c)][k] - before[static_cast<size_t>(c)][k]),
+                    0.5 * design_.margin);
+    }
+    const auto check = check_directional_derivative(gradient_at, k0, unit, dk.col(column), h0, 4, 1e-6);
+    EXPECT_TRUE(check.ok) << name << ": " << check.report;
+    if (!linear) {
+      EXPECT_FALSE(check.roundoff_only) << name << ": " << check.report;
+    }
+    EXPECT_GT(dk.col(column).cwiseAbs().maxCoeff(), 0.0) << names[static_cast<size_t>(column)];
+  }
+  d_.set_parameters(p0);
+}
+
+TEST_F(CatmullClarkKLDerivatives, HessianPatternIsReusedAndAssemblyStrategiesAgree) {
+  VectorXd g1;
+  SparseMatrix H1;
+  const double e1 = d_.energy(q_, &g1, &H1);
+  const double* values = H1.valuePtr();
+  const VectorXd q2 = q_ + 1e-4 * smooth_direction(d_, 3);
+  d_.energy(q2, nullptr, &H1);
+  EXPECT_EQ(H1.valuePtr(), values);  // same storage: values only were overwritten
+  d_.energy(q_, nullptr, &H1);
+
+  for (auto assembly : {CatmullClarkKLOptions::Assembly::Colouring, CatmullClarkKLOptions::Assembly::ThreadLocal})
+    for (int threads : {1, 2}) {
+      CatmullClarkKLOptions o;
+      o.assembly = assembly;
+      o.threads = threads;
+      const CatmullClarkKL other(d_.strip(), d_.parameters(), o);
+      VectorXd g2;
+      SparseMatrix H2;
+      const double e2 = other.energy(q_, &g2, &H2);
+      if (assembly == CatmullClarkKLOptions::Assembly::Colouring) {
+        // Colouring fixes the summation order: bitwise equal for any thread count.
+        EXPECT_EQ(e2, e1);
+        EXPECT_EQ((g2 - g1).cwiseAbs().maxCoeff(), 0.0);
+        EXPECT_EQ(Eigen::MatrixXd(H2 - H1).cwiseAbs().maxCoeff(), 0.0);
+      }
+      EXPECT_NEAR(e2, e1, 1e-14 * e1);
+      EXPECT_LT((g2 - g1).cwiseAbs().maxCoeff(), 1e-13 * g1.cwiseAbs().maxCoeff());
+      EXPECT_LT(Eigen::MatrixXd(H2 - H1).cwiseAbs().maxCoeff(),
+                1e-13 * Eigen::MatrixXd(H1).cwiseAbs().maxCoeff());
+      Eigen::MatrixXd dk1, dk2;
+      d_.gradient_parameter_jacobian(q_, &dk1);
+      other.gradient_parameter_jacobian(q_, &dk2);
+      EXPECT_LT((dk2 - dk1).cwiseAbs().maxCoeff(), 1e-13 * dk1.cwiseAbs().maxCoeff());
+    }
+}
+
+TEST(CatmullClarkKL, ThroughThicknessQuadratureIsExactForStVKAndConvergesOtherwise) {
+  // StVK: Ψ does not depend on n_ξ ≥ 2 (the ξ-integrand is a quadratic polynomial).
+  const StripSpec strip = small_strip(30);
+  const CatmullClarkKL reference_mesh(strip, canvas_stvk());
+  const VectorXd q = distorted_state(reference_mesh);
+  std::vector<double> stvk;
+  for (int n : {2, 3, 6}) {
+    CatmullClarkKLOptions o;
+    o.thickness_points = n;
+    stvk.push_back(CatmullClarkKL(strip, canvas_stvk(), o).energy(q, nullptr, nullptr));
+  }
+  EXPECT_NEAR(stvk[1], stvk[0], 1e-14 * stvk[0]);
+  EXPECT_NEAR(stvk[2], stvk[0], 1e-14 * stvk[0]);
+
+  // Nonlinear law (no cutoffs, so the integrand is smooth; the kernel test covers cutoffs):
+  // the n_ξ-dependent part of Ψ, i.e. the bending energy, converges geometrically.
+  MaterialParameters smooth = canvas_nonlinear();
+  smooth.cutoffs = Cutoffs{std::nullopt, std::nullopt, std::nullopt, std::nullopt, std::nullopt};
+  auto energy_with = [&](const MaterialParameters& p, int n) {
+    CatmullClarkKLOptions o;
+    o.thickness_points = n;
+    return CatmullClarkKL(strip, p, o).energy(q, nullptr, nullptr);
+  };
+  MaterialParameters thin = smooth;
+  thin.thickness_m *= 1e-3;  // bending scales as τ³, membrane as τ: this isolates the membrane
+  const double converged = energy_with(smooth, 24);
+  const double bending = converged - 1e3 * energy_with(thin, 2);
+  ASSERT_GT(bending, 1e-4 * converged);
+  std::vector<double> errors;
+  for (int n : {2, 3, 4, 5}) errors.push_back(std::abs(energy_with(smooth, n) - converged) / bending);
+  // At physical sizes τκ/2 ~ 1e-3: two points leave a small error that the quartic and higher
+  // terms of η cause, three points (the default) are converged to round-off.
+  EXPECT_GT(errors[0], 1e-9);  // the integrand is not a polynomial
+  for (size_t k = 1; k < errors.size(); ++k) EXPECT_LT(errors[k], std::max(1e-3 * errors[0], 1e-10));
+}
+
+TEST(CatmullClarkKL, ClampedBoundaryRowMakesTheEndRigid) {
+  const CatmullClarkKL d(small_strip(45), canvas_stvk());
+  const int nx = d.strip().cells_along, ny = d.strip().cells_across;
+  for (StripEnd end : {StripEnd::Start, StripEnd::End}) {
+    const double x_end = end == StripEnd::Start ? 0.0 : kLength;
+    const std::vector<int> row = d.clamped_nodes(end, false);
+    const std::vector<int> rows = d.clamped_nodes(end, true);
+    EXPECT_EQ(static_cast<int>(row.size()), ny + 1);
+    EXPECT_EQ(static_cast<int>(rows.size()), 2 * (ny + 1));
+    for (int node : row)
+      EXPECT_EQ(d.rest_positions()[3 * node], x_end);
+
+    // Move every unclamped control point randomly (large, out of plane too).
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> uniform(-0.01, 0.01);
+    auto perturbed = [&](const std::vector<int>& held) {
+      VectorXd q = d.rest_positions();
+      for (int i = 0; i < d.num_nodes(); ++i)
+        if (!std::binary_search(held.begin(), held.end(), i))
+          for (int c = 0; c < 3; ++c) q[3 * i + c] += uniform(rng);
+      return q;
+    };
+    std::vector<Vector2d> points;
+    for (int k = 0; k <= 20; ++k) points.emplace_back(x_end, -0.5 * kWidth + kWidth * k / 20.0);
+    const SparseMatrix P = d.point_evaluation(points);
+    const VectorXd rest_line = P * d.rest_positions();
+    const VectorXd moved_line = P * perturbed(row);
+    EXPECT_LT((moved_line - rest_line).cwiseAbs().maxCoeff(), 1e-17);  // exactly rigid
+    for (size_t k = 0; k < points.size(); ++k)
+      EXPECT_LT((rest_line.segment<3>(3 * static_cast<Eigen::Index>(k)) -
+                 Vector3d(points[k].x(), points[k].y(), 0)).norm(), 1e-16);
+
+    // With the slope clamped, the cross derivative ∂x/∂u along the end is fixed as well.
+    const VectorXd q_slope = perturbed(rows);
+    for (int j = 0; j < ny; ++j) {
+      const int face = d.basis().face_index(end == StripEnd::Start ? 0 : nx - 1, j);
+      for (double v : {0.0, 0.3, 0.8}) {
+        const PatchBasis b = d.basis().evaluate(face, end == StripEnd::Start ? 0.0 : 1.0, v);
+        Vector3d du_rest = Vector3d::Zero(), du_moved = Vector3d::Zero();
+        for (int k = 0; k < 16; ++k) {
+          const int node = b.nodes[static_cast<size_t>(k)];
+          du_rest += b.weights(1, k) * d.rest_positions().segment<3>(3 * node);
+          du_moved += b.weights(1, k) * q_slope.segment<3>(3 * node);
+        }
+        EXPECT_LT((du_moved - du_rest).norm(), 1e-15);
+      }
+    }
+  }
+}
+
+TEST(CatmullClarkKL, PointEvaluationReproducesTheRestRectangle) {
+  const CatmullClarkKL d(small_strip(0, 3, 5), canvas_stvk());
+  std::vector<Vector2d> points = {{0, -kWidth / 2},          {kLength, -kWidth / 2},
+                                  {kLength, kWidth / 2},     {0, kWidth / 2},
+                                  {kLength / 2, -kWidth / 2}, {kLength, 0},
+                                  {kLength / 2, kWidth / 2},  {0, 0}};
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> ux(0, kLength), uy(-kWidth / 2, kWidth / 2);
+  for (int k = 0; k < 10; ++k) points.emplace_back(ux(rng), uy(rng));
+  const SparseMatrix P = d.point_evaluation(points);
+  ASSERT_EQ(P.rows(), 3 * static_cast<Eigen::Index>(points.size()));
+  const VectorXd x = P * d.rest_positions();
+  for (size_t k = 0; k < points.size(); ++k) {
+    const Vector3d expected(points[k].x(), points[k].y(), 0.0);
+    EXPECT_LT((x.segment<3>(3 * static_cast<Eigen::Index>(k)) - expected).norm(), 2e-17)
+        << "point " << k;
+  }
+  // Rows are partitions of unity (translations move every point alike).
+  for (Eigen::Index r = 0; r < P.rows(); ++r) EXPECT_NEAR(P.row(r).sum(), 1.0, 1e-15);
+  EXPECT_THROW(d.point_evaluation({Vector2d(kLength * 1.01, 0)}), InputError);
+}
+
+TEST(CatmullClarkKL, LumpedMassAndGravity) {
+  const MaterialParameters p = canvas_stvk();
+  const CatmullClarkKL d(small_strip(0), p);
+  const VectorXd m = d.lumped_mass();
+  ASSERT_EQ(m.size(), d.num_dofs());
+  EXPECT_NEAR(m.sum() / 3.0, p.density_kg_m2 * kLength * kWidth, 1e-15);
+  EXPECT_GT(m.minCoeff(), 0.0);
+
+  CatmullClarkKL with_gravity(small_strip(0), p);
+  const Vector3d g(0, 0, -9.81);
+  with_gravity.set_gravity(g);
+  VectorXd lifted = d.rest_positions();
+  for (int i = 0; i < d.num_nodes(); ++i) lifted[3 * i + 2] += 0.1;
+  const double potential = with_gravity.energy(lifted, nullptr, nullptr);
+  EXPECT_NEAR(potential, p.density_kg_m2 * kLength * kWidth * 9.81 * 0.1, 1e-15);
+  VectorXd gradient;
+  with_gravity.energy(lifted, &gradient, nullptr);
+  for (int i = 0; i < d.num_nodes(); ++i)
+    EXPECT_NEAR(gradient[3 * i + 2], m[3 * i] * 9.81, 1e-15);  // weight pulls down: ∂Ψ/∂z > 0
+}
+
+TEST(CatmullClarkKL, SurfaceMeshSamplesTheLimitSurface) {
+  CatmullClarkKLOptions o;
+  o.surface_samples_per_face = 3;
+  const CatmullClarkKL d(small_strip(0, 2, 3), canvas_stvk(), o);
+  Eigen::MatrixXd V;
+  Eigen::MatrixXi F;
+  d.surface_mesh(d.rest_positions(), &V, &F);
+  const int cols = 3 * 3, rows = 2 * 3;
+  ASSERT_EQ(V.rows(), (cols + 1) * (rows + 1));
+  ASSERT_EQ(F.rows(), 2 * cols * rows);
+  EXPECT_LT(V.col(2).cwiseAbs().maxCoeff(), 1e-17);
+  EXPECT_NEAR(V(cols, 0), kLength, 1e-16);
+  EXPECT_NEAR(V(V.rows() - 1, 1), kWidth / 2, 1e-16);
+  double area = 0.0;
+  for (int t = 0; t < F.rows(); ++t) {
+    const Vector3d a = V.row(F(t, 0)), b = V.row(F(t, 1)), c = V.row(F(t, 2));
+    const Vector3d n = (b - a).cross(c - a);
+    EXPECT_GT(n.z(), 0.0);  // counter-clockwise seen from +z
+    area += 0.5 * n.norm();
+  }
+  EXPECT_NEAR(area, kLength * kWidth, 1e-15);
+}
+
+}  // namespace
+}  // namespace twill
