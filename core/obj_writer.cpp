@@ -11,9 +11,11 @@ namespace twill {
 
 void write_obj(const std::string& path, const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
   if (V.cols() != 3 && V.rows() > 0)
-    throw std::invalid_argument("write_obj: V must have 3 columns, has " + std::to_string(V.cols()));
+    throw std::invalid_argument("write_obj: V must have 3 columns, has " +
+                                std::to_string(V.cols()));
   if (F.cols() != 3 && F.rows() > 0)
-    throw std::invalid_argument("write_obj: F must have 3 columns, has " + std::to_string(F.cols()));
+    throw std::invalid_argument("write_obj: F must have 3 columns, has " +
+                                std::to_string(F.cols()));
   if (F.size() > 0 && (F.minCoeff() < 0 || F.maxCoeff() >= V.rows()))
     throw std::invalid_argument("write_obj: face index out of range [0, " +
                                 std::to_string(V.rows()) + ")");

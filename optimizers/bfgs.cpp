@@ -37,18 +37,20 @@ Eigen::VectorXd reduced_direction(const Eigen::MatrixXd& H, const Eigen::VectorX
 }  // namespace
 
 std::vector<OptionBinding<BfgsOptions>> bfgs_option_bindings() {
+  const OptionConstraint unit_interval = [](OptionSpec& s) { s.greater_than(0.0).less_than(1.0); };
   auto bindings = common_option_bindings<BfgsOptions>();
-  bindings.push_back(
-      real_option<BfgsOptions>("c1", &BfgsOptions::c1, 0.0, false, 1.0, false,
-                               "strong Wolfe sufficient-decrease constant (c1 < c2)"));
-  bindings.push_back(real_option<BfgsOptions>("c2", &BfgsOptions::c2, 0.0, false, 1.0, false,
-                                              "strong Wolfe curvature constant (c1 < c2)"));
-  bindings.push_back(integer_option<BfgsOptions>("max_line_search_evaluations",
-                                                 &BfgsOptions::max_line_search_evaluations, 1, 1000,
-                                                 "evaluations allowed per line search"));
+  bindings.push_back(real_option<BfgsOptions>("c1", &BfgsOptions::c1,
+                                              "strong Wolfe sufficient-decrease constant (c1 < c2)",
+                                              unit_interval));
   bindings.push_back(real_option<BfgsOptions>(
-      "update_skip_threshold", &BfgsOptions::update_skip_threshold, 0.0, true, 1.0, false,
-      "skip the BFGS update when y's <= this * norm(s) * norm(y)"));
+      "c2", &BfgsOptions::c2, "strong Wolfe curvature constant (c1 < c2)", unit_interval));
+  bindings.push_back(integer_option<BfgsOptions>(
+      "max_line_search_evaluations", &BfgsOptions::max_line_search_evaluations,
+      "evaluations allowed per line search", [](OptionSpec& s) { s.range(1, 1000); }));
+  bindings.push_back(
+      real_option<BfgsOptions>("update_skip_threshold", &BfgsOptions::update_skip_threshold,
+                               "skip the BFGS update when y's <= this * norm(s) * norm(y)",
+                               [](OptionSpec& s) { s.at_least(0.0).less_than(1.0); }));
   return bindings;
 }
 
@@ -86,9 +88,7 @@ Bfgs::Bfgs(BfgsOptions options) : options_(std::move(options)) {
   if (!options_.validate(&error)) throw InputError({"", 0, ""}, "bfgs: " + error);
 }
 
-OptionValues Bfgs::resolved_options() const {
-  return option_values(bfgs_option_bindings(), options_);
-}
+Options Bfgs::resolved_options() const { return options_of(bfgs_option_bindings(), options_); }
 
 void Bfgs::run(CountedProblem& problem, Eigen::VectorXd x, OptimizerResult& result) const {
   const Eigen::VectorXd& lower = problem.lower();

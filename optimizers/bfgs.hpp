@@ -1,5 +1,5 @@
 #pragma once
-// Dense BFGS (Nocedal & Wright, Numerical Optimization, 2nd ed., 2006, Alg. 6.1, p. 140)
+// Dense BFGS (Nocedal & Wright, Numerical Optimization, 2nd ed., 2006, Alg. 6.1)
 // with the strong Wolfe line search of strong_wolfe_line_search.hpp.
 //
 // - Inverse-Hessian update N&W eq. 6.17: H ← (I − ρ s yᵀ) H (I − ρ y sᵀ) + ρ s sᵀ, ρ = 1/yᵀs.
@@ -7,8 +7,8 @@
 //   (H = I, no curvature known) starts the line search at α = min(1, 1/‖p‖₂), so that the first
 //   trial moves x by at most one unit.
 // - Safeguard: the update is skipped when yᵀs ≤ ε ‖s‖ ‖y‖ (ε = update_skip_threshold). Strong
-//   Wolfe steps always have yᵀs > 0 (N&W p. 143), so skips happen only at bound-limited steps
-//   or in round-off.
+//   Wolfe steps always have yᵀs > 0 (they satisfy N&W eq. 6.7), so skips happen only at
+//   bound-limited steps or in round-off.
 // - If a direction is not a descent direction (round-off) or its line search fails, H is reset
 //   to the latest (yᵀs / yᵀy) I and the iteration is retried once; a second failure ends the
 //   run with status line_search_failed.
@@ -57,7 +57,7 @@ class Bfgs : public Optimizer {
   explicit Bfgs(BfgsOptions options = {});
 
   std::string name() const override { return "bfgs"; }
-  OptionValues resolved_options() const override;
+  Options resolved_options() const override;
   const BfgsOptions& options() const { return options_; }
 
  protected:

@@ -49,7 +49,7 @@ Eigen::VectorXd model_step(const Linearization& at, const std::vector<int>& free
 }  // namespace
 
 std::vector<OptionBinding<GaussNewtonOptions>> gauss_newton_option_bindings() {
-  constexpr double inf = std::numeric_limits<double>::infinity();
+  const OptionConstraint positive = [](OptionSpec& s) { s.greater_than(0.0); };
   auto bindings = common_option_bindings<GaussNewtonOptions>();
   bindings.push_back(enum_option<GaussNewtonOptions>(
       "damping", &GaussNewtonOptions::damping,
@@ -57,17 +57,19 @@ std::vector<OptionBinding<GaussNewtonOptions>> gauss_newton_option_bindings() {
        {"levenberg-marquardt", GaussNewtonDamping::levenberg_marquardt}},
       "none: Gauss-Newton step + backtracking; levenberg-marquardt: adaptive damping (Nielsen)"));
   bindings.push_back(real_option<GaussNewtonOptions>(
-      "initial_lambda", &GaussNewtonOptions::initial_lambda, 0.0, false, inf, false,
-      "initial Levenberg-Marquardt damping, relative to diag(J'J)"));
-  bindings.push_back(
-      real_option<GaussNewtonOptions>("max_lambda", &GaussNewtonOptions::max_lambda, 0.0, false,
-                                      inf, false, "stop (stalled) when the damping exceeds this"));
+      "initial_lambda", &GaussNewtonOptions::initial_lambda,
+      "initial Levenberg-Marquardt damping, relative to diag(J'J)", positive));
+  bindings.push_back(real_option<GaussNewtonOptions>("max_lambda", &GaussNewtonOptions::max_lambda,
+                                                     "stop (stalled) when the damping exceeds this",
+                                                     positive));
   bindings.push_back(real_option<GaussNewtonOptions>(
-      "c1", &GaussNewtonOptions::c1, 0.0, false, 1.0, false,
-      "Armijo sufficient-decrease constant of the backtracking line search (damping none)"));
+      "c1", &GaussNewtonOptions::c1,
+      "Armijo sufficient-decrease constant of the backtracking line search (damping none)",
+      [](OptionSpec& s) { s.greater_than(0.0).less_than(1.0); }));
   bindings.push_back(integer_option<GaussNewtonOptions>(
-      "max_line_search_evaluations", &GaussNewtonOptions::max_line_search_evaluations, 1, 1000,
-      "evaluations allowed per backtracking line search (damping none)"));
+      "max_line_search_evaluations", &GaussNewtonOptions::max_line_search_evaluations,
+      "evaluations allowed per backtracking line search (damping none)",
+      [](OptionSpec& s) { s.range(1, 1000); }));
   return bindings;
 }
 
@@ -87,8 +89,8 @@ GaussNewton::GaussNewton(GaussNewtonOptions options) : options_(std::move(option
   if (!options_.validate(&error)) throw InputError({"", 0, ""}, "gauss-newton: " + error);
 }
 
-OptionValues GaussNewton::resolved_options() const {
-  return option_values(gauss_newton_option_bindings(), options_);
+Options GaussNewton::resolved_options() const {
+  return options_of(gauss_newton_option_bindings(), options_);
 }
 
 void GaussNewton::run(CountedProblem& problem, Eigen::VectorXd x0, OptimizerResult& result) const {

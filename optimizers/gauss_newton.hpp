@@ -3,17 +3,18 @@
 //
 // The step h minimises the linearised model m(h) = ‖r + J h‖² (+ damping), computed by a
 // column-pivoted QR of J (or of the damped augmented matrix), never by forming JᵀJ, so that
-// the condition number is not squared (Nocedal & Wright, 2nd ed., §10.3, p. 259).
+// the condition number is not squared (Nocedal & Wright, 2nd ed., §10.2–10.3).
 //
-// damping = none: h = argmin ‖r + J h‖² (the minimum-residual basic solution when J is rank
+// damping = none: h = argmin ‖r + J h‖² (a basic least-squares solution when J is rank
 //   deficient), then a backtracking Armijo line search on φ(α) = f(x + α h), starting at α = 1,
 //   trial steps from the safeguarded quadratic interpolation in [0.1 α, 0.5 α]
 //   (N&W Alg. 3.1 with §3.5's interpolation).
 // damping = levenberg-marquardt: h = argmin ‖r + J h‖² + λ ‖D h‖², D² = diag(JᵀJ) (Marquardt's
 //   scaling: invariant to rescaling a parameter; diagonal entries below 1e-12 · max are raised
 //   to that floor so that an unidentified parameter still gets a finite step). λ adapts with
-//   Nielsen's rule (Madsen, Nielsen & Tingleff, "Methods for non-linear least squares
-//   problems", 2004, eq. 2.21 / Alg. 3.16): with gain ratio ρ = (f(x) − f(x+h)) / (m(0) − m(h)),
+//   Nielsen's rule (H. B. Nielsen, "Damping parameter in Marquardt's method", IMM-REP-1999-05,
+//   DTU 1999; also Madsen, Nielsen & Tingleff, "Methods for non-linear least squares problems",
+//   2004, §3.2): with gain ratio ρ = (f(x) − f(x+h)) / (m(0) − m(h)),
 //   a step with ρ > 0 is accepted and λ ← λ · max(1/3, 1 − (2ρ − 1)³), ν ← 2; otherwise
 //   λ ← λ ν, ν ← 2ν and the step is recomputed. λ above max_lambda ends the run (stalled).
 //
@@ -54,7 +55,7 @@ class GaussNewton : public Optimizer {
   explicit GaussNewton(GaussNewtonOptions options = {});
 
   std::string name() const override { return "gauss-newton"; }
-  OptionValues resolved_options() const override;
+  Options resolved_options() const override;
   bool requires_residuals() const override { return true; }
   const GaussNewtonOptions& options() const { return options_; }
 

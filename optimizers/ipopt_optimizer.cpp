@@ -107,19 +107,23 @@ class ProblemTnlp : public Ipopt::TNLP {
 
   bool get_bounds_info(Index n, Number* x_l, Number* x_u, Index /*m*/, Number* /*g_l*/,
                        Number* /*g_u*/) override {
-    for (Index i = 0; i < n; ++i) {
-      x_l[i] = std::max(problem_.lower()[i], -kIpoptInfinity);
-      x_u[i] = std::min(problem_.upper()[i], kIpoptInfinity);
-    }
-    return true;
+    return guard([&] {
+      for (Index i = 0; i < n; ++i) {
+        x_l[i] = std::max(problem_.lower()[i], -kIpoptInfinity);
+        x_u[i] = std::min(problem_.upper()[i], kIpoptInfinity);
+      }
+      return true;
+    });
   }
 
   bool get_starting_point(Index n, bool init_x, Number* x, bool init_z, Number* /*z_L*/,
                           Number* /*z_U*/, Index /*m*/, bool init_lambda,
                           Number* /*lambda*/) override {
-    if (!init_x || init_z || init_lambda) return false;  // no warm start offered
-    std::copy(x0_.data(), x0_.data() + n, x);
-    return true;
+    return guard([&] {
+      if (!init_x || init_z || init_lambda) return false;  // no warm start offered
+      std::copy(x0_.data(), x0_.data() + n, x);
+      return true;
+    });
   }
 
   bool eval_f(Index n, const Number* x, bool /*new_x*/, Number& obj_value) override {
@@ -269,11 +273,12 @@ class ProblemTnlp : public Ipopt::TNLP {
 std::vector<OptionBinding<IpoptOptions>> ipopt_option_bindings() {
   auto bindings = common_option_bindings<IpoptOptions>();
   set_option_doc(bindings, "step_tolerance", "not used: Ipopt applies its own tiny-step test");
-  bindings.push_back(integer_option<IpoptOptions>("print_level", &IpoptOptions::print_level, 0, 12,
-                                                  "Ipopt's print_level (0: silent)"));
+  bindings.push_back(integer_option<IpoptOptions>("print_level", &IpoptOptions::print_level,
+                                                  "Ipopt's print_level (0: silent)",
+                                                  [](OptionSpec& s) { s.range(0, 12); }));
   bindings.push_back(integer_option<IpoptOptions>(
-      "limited_memory_max_history", &IpoptOptions::limited_memory_max_history, 1, 1000,
-      "number of L-BFGS correction pairs Ipopt keeps"));
+      "limited_memory_max_history", &IpoptOptions::limited_memory_max_history,
+      "number of L-BFGS correction pairs Ipopt keeps", [](OptionSpec& s) { s.range(1, 1000); }));
   bindings.push_back(choice_option<IpoptOptions>("mu_strategy", &IpoptOptions::mu_strategy,
                                                  {"monotone", "adaptive"},
                                                  "Ipopt's barrier-parameter update strategy"));
@@ -292,8 +297,8 @@ IpoptOptimizer::IpoptOptimizer(IpoptOptions options) : options_(std::move(option
   if (!options_.validate(&error)) throw InputError({"", 0, ""}, "ipopt: " + error);
 }
 
-OptionValues IpoptOptimizer::resolved_options() const {
-  return option_values(ipopt_option_bindings(), options_);
+Options IpoptOptimizer::resolved_options() const {
+  return options_of(ipopt_option_bindings(), options_);
 }
 
 void IpoptOptimizer::run(CountedProblem& problem, Eigen::VectorXd x0,

@@ -27,6 +27,8 @@
 //   and step length as the other optimisers. The gradient test of gradient_tolerance is also
 //   applied there, so "converged" means the same thing for every optimiser.
 // - Output: print_level 0 and no banner by default.
+// - With bounds, Ipopt first moves x0 strictly inside the box (its bound_push), so the trace's
+//   iteration 0 may differ slightly from x0.
 #include <string>
 #include <vector>
 
@@ -55,7 +57,7 @@ class IpoptOptimizer : public Optimizer {
   explicit IpoptOptimizer(IpoptOptions options = {});
 
   std::string name() const override { return "ipopt"; }
-  OptionValues resolved_options() const override;
+  Options resolved_options() const override;
   const IpoptOptions& options() const { return options_; }
 
  protected:

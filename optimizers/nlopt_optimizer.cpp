@@ -135,7 +135,6 @@ std::vector<std::string> supported_nlopt_algorithms() {
 }
 
 std::vector<OptionBinding<NloptOptions>> nlopt_option_bindings() {
-  constexpr double inf = std::numeric_limits<double>::infinity();
   auto bindings = common_option_bindings<NloptOptions>();
   set_option_doc(bindings, "max_iterations",
                  "not used: NLopt has no iterations (max_evaluations is the budget)");
@@ -143,11 +142,13 @@ std::vector<OptionBinding<NloptOptions>> nlopt_option_bindings() {
                                                  supported_nlopt_algorithms(),
                                                  "the NLopt algorithm, by its NLopt name"));
   bindings.push_back(real_option<NloptOptions>(
-      "initial_step", &NloptOptions::initial_step, 0.0, true, inf, false,
-      "initial step of derivative-free algorithms in units of x (0: NLopt's choice)"));
+      "initial_step", &NloptOptions::initial_step,
+      "initial step of derivative-free algorithms in units of x (0: NLopt's choice)",
+      [](OptionSpec& s) { s.at_least(0.0); }));
   bindings.push_back(integer_option<NloptOptions>(
-      "vector_storage", &NloptOptions::vector_storage, 0, 1000,
-      "stored vectors of LD_LBFGS / LD_VAR2 / LD_TNEWTON (0: NLopt's choice)"));
+      "vector_storage", &NloptOptions::vector_storage,
+      "stored vectors of LD_LBFGS / LD_VAR2 / LD_TNEWTON (0: NLopt's choice)",
+      [](OptionSpec& s) { s.range(0, 1000); }));
   return bindings;
 }
 
@@ -161,8 +162,8 @@ NloptOptimizer::NloptOptimizer(NloptOptions options) : options_(std::move(option
   if (!options_.validate(&error)) throw InputError({"", 0, ""}, "nlopt: " + error);
 }
 
-OptionValues NloptOptimizer::resolved_options() const {
-  return option_values(nlopt_option_bindings(), options_);
+Options NloptOptimizer::resolved_options() const {
+  return options_of(nlopt_option_bindings(), options_);
 }
 
 void NloptOptimizer::run(CountedProblem& problem, Eigen::VectorXd x0,

@@ -57,7 +57,7 @@ class NloptOptimizer : public Optimizer {
   explicit NloptOptimizer(NloptOptions options = {});
 
   std::string name() const override { return "nlopt"; }
-  OptionValues resolved_options() const override;
+  Options resolved_options() const override;
   const NloptOptions& options() const { return options_; }
 
  protected:

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "core/problem.hpp"
+#include "core/registry.hpp"
 #include "optimizers/option_schema.hpp"
 
 namespace twill {
@@ -83,32 +84,25 @@ struct OptimizerOptions {
 };
 
 /// Bindings of the common options, to prepend to each optimiser's own.
-template <class Options>
-std::vector<OptionBinding<Options>> common_option_bindings() {
-  constexpr double inf = std::numeric_limits<double>::infinity();
+template <class Struct>
+std::vector<OptionBinding<Struct>> common_option_bindings() {
+  const OptionConstraint non_negative = [](OptionSpec& s) { s.at_least(0.0); };
+  const OptionConstraint positive = [](OptionSpec& s) { s.at_least(1); };
   return {
-      real_option<Options>("gradient_tolerance", &Options::gradient_tolerance, 0.0, true, inf,
-                           false, "stop when the projected-gradient inf-norm is at most this"),
-      real_option<Options>("function_tolerance", &Options::function_tolerance, 0.0, true, inf,
-                           false,
-                           "stop when the relative change of f in one iteration is at most this"),
-      real_option<Options>(
-          "step_tolerance", &Options::step_tolerance, 0.0, true, inf, false,
-          "stop when the step inf-norm is at most this times (inf-norm of x + this)"),
-      integer_option<Options>("max_iterations", &Options::max_iterations, 1,
-                              std::numeric_limits<int>::max(), "maximum number of iterations"),
-      integer_option<Options>("max_evaluations", &Options::max_evaluations, 1,
-                              std::numeric_limits<int>::max(),
-                              "maximum number of objective evaluations"),
+      real_option<Struct>("gradient_tolerance", &Struct::gradient_tolerance,
+                          "stop when the projected-gradient inf-norm is at most this",
+                          non_negative),
+      real_option<Struct>("function_tolerance", &Struct::function_tolerance,
+                          "stop when the relative change of f in one iteration is at most this",
+                          non_negative),
+      real_option<Struct>(
+          "step_tolerance", &Struct::step_tolerance,
+          "stop when the step inf-norm is at most this times (inf-norm of x + this)", non_negative),
+      integer_option<Struct>("max_iterations", &Struct::max_iterations,
+                             "maximum number of iterations", positive),
+      integer_option<Struct>("max_evaluations", &Struct::max_evaluations,
+                             "maximum number of objective evaluations (a hard cap)", positive),
   };
-}
-
-/// Replaces the doc line of option `name` (an optimiser that ignores a common option says so).
-template <class Options>
-void set_option_doc(std::vector<OptionBinding<Options>>& bindings, const std::string& name,
-                    std::string doc) {
-  for (auto& b : bindings)
-    if (b.description.name == name) b.description.doc = std::move(doc);
 }
 
 /// The Problem as one minimize() call sees it: counts evaluations into the summary, keeps the
@@ -177,6 +171,12 @@ std::optional<std::string> check_convergence(const OptimizerOptions& options, do
                                              double f, const Eigen::VectorXd& x_prev,
                                              const Eigen::VectorXd& x, double gradient_norm);
 
+class Optimizer;
+
+/// The registry category of optimisers (core/registry.hpp): a factory receives only its
+/// resolved options. optimizer_factory.hpp's register_optimizers() fills it.
+using OptimizerFactories = FactoryCategory<Optimizer>;
+
 class Optimizer {
  public:
   virtual ~Optimizer() = default;
@@ -184,8 +184,8 @@ class Optimizer {
   /// Registered name, e.g. "bfgs".
   virtual std::string name() const = 0;
   /// Every option with its current value (defaults included): the resolved config to save
-  /// next to a result.
-  virtual OptionValues resolved_options() const = 0;
+  /// next to a result (core/config.hpp's write_config_file).
+  virtual Options resolved_options() const = 0;
   /// True when the method works on Problem::residuals() (least-squares methods).
   virtual bool requires_residuals() const { return false; }
 

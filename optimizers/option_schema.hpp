@@ -1,189 +1,179 @@
 #pragma once
-// Option schemas as plain data (style.md §3–4, PolyFEM's JSON spec, Ceres' IsValid):
-// every optimiser option has a name, a type, a default, a range and a one-line doc, and one
-// binding ties it to a field of the typed options struct. From the bindings come
-//   - the descriptions the registry shows and validates configs against (describe_options),
-//   - the Ceres-style check of a typed struct (check_options: names the violated constraint),
-//   - the strict conversion of a name → value map into the struct (options_from_values: an
-//     unknown key, a wrong type or an out-of-range value throws InputError naming the key),
-//   - the resolved map of every option, defaults included, to save with a result.
+// The optimisers' option schemas, in the program's one schema vocabulary (core/config.hpp's
+// OptionSchema / Options, used by the registry, core/registry.hpp).
+//
+// Each field of a typed options struct (BfgsOptions, …) is declared once, as a binding: its
+// spec (name, type, default taken from a default-constructed struct, range or choices,
+// one-line doc) and how to read and write the field. From the bindings come
+//   - the OptionSchema the registry validates configs against       (option_schema)
+//   - the Ceres IsValid-style check of a typed struct, naming the
+//     violated constraint, e.g. "c2 must be in (0, 1), got 1"      (check_options)
+//   - the typed struct from resolved Options                        (options_from)
+//   - the resolved Options of a struct, defaults included, to save
+//     next to a result                                               (options_of)
+#include <cmath>
+#include <cstdint>
 #include <functional>
 #include <limits>
-#include <map>
 #include <string>
 #include <utility>
-#include <variant>
 #include <vector>
 
+#include "core/config.hpp"
 #include "core/input_error.hpp"
 
 namespace twill {
 
-enum class OptionType { real, integer, boolean, choice };
-std::string to_string(OptionType type);
+/// A range or other constraint on a spec, e.g. [](OptionSpec& s) { s.greater_than(0); }.
+using OptionConstraint = std::function<void(OptionSpec&)>;
 
-/// A value as a config file gives it. A `choice` option takes a std::string.
-using OptionValue = std::variant<bool, int, double, std::string>;
-/// Options by name, e.g. {"c2": 0.9, "damping": "levenberg-marquardt"}.
-using OptionValues = std::map<std::string, OptionValue>;
-std::string to_string(const OptionValue& value);
-
-struct OptionDescription {
-  std::string name;
-  OptionType type = OptionType::real;
-  OptionValue default_value;
-  /// Range of real and integer options; inclusive unless the flag says otherwise.
-  double minimum = -std::numeric_limits<double>::infinity();
-  double maximum = std::numeric_limits<double>::infinity();
-  bool minimum_inclusive = true;
-  bool maximum_inclusive = true;
-  std::vector<std::string> choices;  ///< the allowed values of a choice option
-  std::string doc;                   ///< one line
-
-  /// The range as text: "(0, 1)", "[1, inf)", "{none, levenberg-marquardt}", "{false, true}".
-  std::string range() const;
-  /// Empty when `value` has this option's type (an int is accepted for a real, an integral
-  /// real for an integer) and lies in range; otherwise the violated constraint, e.g.
-  /// "c2 = 1.5 is outside (0, 1)".
-  std::string check(const OptionValue& value) const;
-};
-
-/// `value` converted to the option's type (call after check() returned empty).
-double option_as_real(const OptionValue& value);
-int option_as_integer(const OptionValue& value);
-
-/// One option bound to a field of `Options`.
-template <class Options>
+/// One option bound to a field of `Struct`.
+template <class Struct>
 struct OptionBinding {
-  OptionDescription description;  ///< default_value is filled from Options{} by describe
-  std::function<OptionValue(const Options&)> get;
-  std::function<void(Options&, const OptionValue&)> set;  ///< value already checked
+  std::string name;
+  std::string doc;  ///< one line
+  /// Adds the spec to `schema` with the default taken from `defaults`.
+  std::function<void(OptionSchema& schema, const Struct& defaults, const std::string& line)>
+      declare;
+  std::function<OptionValue(const Struct&)> get;
+  std::function<void(Struct&, const OptionValue&)> set;  ///< value already of the spec's type
 };
 
-template <class Options>
-OptionBinding<Options> real_option(std::string name, double Options::*field, double minimum,
-                                   bool minimum_inclusive, double maximum, bool maximum_inclusive,
-                                   std::string doc) {
-  OptionDescription d;
-  d.name = std::move(name);
-  d.type = OptionType::real;
-  d.minimum = minimum;
-  d.minimum_inclusive = minimum_inclusive;
-  d.maximum = maximum;
-  d.maximum_inclusive = maximum_inclusive;
-  d.doc = std::move(doc);
-  return {std::move(d), [field](const Options& o) { return OptionValue(o.*field); },
-          [field](Options& o, const OptionValue& v) { o.*field = option_as_real(v); }};
+template <class Struct>
+OptionBinding<Struct> real_option(std::string name, double Struct::*field, std::string doc,
+                                  OptionConstraint constraint = {}) {
+  OptionBinding<Struct> b;
+  b.name = name;
+  b.doc = std::move(doc);
+  b.declare = [name, field, constraint](OptionSchema& s, const Struct& d, const std::string& line) {
+    OptionSpec& spec = s.add_double(name, d.*field, line);
+    if (constraint) constraint(spec);
+  };
+  b.get = [field](const Struct& o) { return OptionValue(o.*field); };
+  b.set = [field](Struct& o, const OptionValue& v) { o.*field = std::get<double>(v); };
+  return b;
 }
 
-template <class Options>
-OptionBinding<Options> integer_option(std::string name, int Options::*field, int minimum,
-                                      int maximum, std::string doc) {
-  OptionDescription d;
-  d.name = std::move(name);
-  d.type = OptionType::integer;
-  d.minimum = minimum;
-  d.maximum = maximum;
-  d.doc = std::move(doc);
-  return {std::move(d), [field](const Options& o) { return OptionValue(o.*field); },
-          [field](Options& o, const OptionValue& v) { o.*field = option_as_integer(v); }};
+/// An int field; the spec is also capped to int's range (config integers are 64-bit).
+template <class Struct>
+OptionBinding<Struct> integer_option(std::string name, int Struct::*field, std::string doc,
+                                     OptionConstraint constraint = {}) {
+  OptionBinding<Struct> b;
+  b.name = name;
+  b.doc = std::move(doc);
+  b.declare = [name, field, constraint](OptionSchema& s, const Struct& d, const std::string& line) {
+    OptionSpec& spec = s.add_int(name, d.*field, line);
+    spec.at_most(std::numeric_limits<int>::max());
+    if (constraint) constraint(spec);
+  };
+  b.get = [field](const Struct& o) { return OptionValue(static_cast<std::int64_t>(o.*field)); };
+  b.set = [field](Struct& o, const OptionValue& v) {
+    o.*field = static_cast<int>(std::get<std::int64_t>(v));
+  };
+  return b;
 }
 
-template <class Options>
-OptionBinding<Options> choice_option(std::string name, std::string Options::*field,
-                                     std::vector<std::string> choices, std::string doc) {
-  OptionDescription d;
-  d.name = std::move(name);
-  d.type = OptionType::choice;
-  d.choices = std::move(choices);
-  d.doc = std::move(doc);
-  return {std::move(d), [field](const Options& o) { return OptionValue(o.*field); },
-          [field](Options& o, const OptionValue& v) { o.*field = std::get<std::string>(v); }};
+template <class Struct>
+OptionBinding<Struct> choice_option(std::string name, std::string Struct::*field,
+                                    std::vector<std::string> choices, std::string doc) {
+  OptionBinding<Struct> b;
+  b.name = name;
+  b.doc = std::move(doc);
+  b.declare = [name, field, choices](OptionSchema& s, const Struct& d, const std::string& line) {
+    s.add_string(name, d.*field, line).choices(choices);
+  };
+  b.get = [field](const Struct& o) { return OptionValue(o.*field); };
+  b.set = [field](Struct& o, const OptionValue& v) { o.*field = std::get<std::string>(v); };
+  return b;
 }
 
 /// A choice stored as an enum: `names` pairs each allowed text with its enumerator.
-template <class Options, class Enum>
-OptionBinding<Options> enum_option(std::string name, Enum Options::*field,
-                                   std::vector<std::pair<std::string, Enum>> names,
-                                   std::string doc) {
-  OptionDescription d;
-  d.name = std::move(name);
-  d.type = OptionType::choice;
-  for (const auto& [text, value] : names) d.choices.push_back(text);
-  d.doc = std::move(doc);
-  auto get = [field, names](const Options& o) {
-    for (const auto& [text, value] : names)
-      if (o.*field == value) return OptionValue(text);
-    return OptionValue(std::string("<unnamed>"));
+template <class Struct, class Enum>
+OptionBinding<Struct> enum_option(std::string name, Enum Struct::*field,
+                                  std::vector<std::pair<std::string, Enum>> names,
+                                  std::string doc) {
+  auto text_of = [names](Enum value) {
+    for (const auto& [text, e] : names)
+      if (e == value) return text;
+    return std::string("<unnamed>");
   };
-  auto set = [field, names](Options& o, const OptionValue& v) {
-    for (const auto& [text, value] : names)
-      if (std::get<std::string>(v) == text) o.*field = value;
+  OptionBinding<Struct> b;
+  b.name = name;
+  b.doc = std::move(doc);
+  b.declare = [name, field, names, text_of](OptionSchema& s, const Struct& d,
+                                            const std::string& line) {
+    std::vector<std::string> choices;
+    for (const auto& [text, e] : names) choices.push_back(text);
+    s.add_string(name, text_of(d.*field), line).choices(choices);
   };
-  return {std::move(d), get, set};
+  b.get = [field, text_of](const Struct& o) { return OptionValue(text_of(o.*field)); };
+  b.set = [field, names](Struct& o, const OptionValue& v) {
+    for (const auto& [text, e] : names)
+      if (std::get<std::string>(v) == text) o.*field = e;
+  };
+  return b;
 }
 
-/// The descriptions with defaults taken from a default-constructed Options.
-template <class Options>
-std::vector<OptionDescription> describe_options(
-    const std::vector<OptionBinding<Options>>& bindings) {
-  const Options defaults{};
-  std::vector<OptionDescription> out;
-  for (const auto& b : bindings) {
-    out.push_back(b.description);
-    out.back().default_value = b.get(defaults);
-  }
-  return out;
+/// Replaces the doc line of option `name` (an optimiser that ignores a common option says so).
+template <class Struct>
+void set_option_doc(std::vector<OptionBinding<Struct>>& bindings, const std::string& name,
+                    std::string doc) {
+  for (auto& b : bindings)
+    if (b.name == name) b.doc = std::move(doc);
 }
 
-/// Every option's current value, by name (the resolved config).
-template <class Options>
-OptionValues option_values(const std::vector<OptionBinding<Options>>& bindings,
-                           const Options& options) {
-  OptionValues out;
-  for (const auto& b : bindings) out[b.description.name] = b.get(options);
-  return out;
+/// The schema, defaults from a default-constructed Struct.
+template <class Struct>
+OptionSchema option_schema(const std::vector<OptionBinding<Struct>>& bindings) {
+  const Struct defaults{};
+  OptionSchema schema;
+  for (const auto& b : bindings) b.declare(schema, defaults, b.doc);
+  return schema;
 }
 
-/// Ceres IsValid style: false with the first violated range in `error` (which may be null).
-template <class Options>
-bool check_options(const std::vector<OptionBinding<Options>>& bindings, const Options& options,
+/// Ceres IsValid style: false with the first violated constraint in `error` (may be null),
+/// e.g. "c2 must be in (0, 1), got 1". Cross-field constraints are the struct's validate().
+template <class Struct>
+bool check_options(const std::vector<OptionBinding<Struct>>& bindings, const Struct& options,
                    std::string* error) {
+  const OptionSchema schema = option_schema(bindings);
   for (const auto& b : bindings) {
-    const std::string problem = b.description.check(b.get(options));
+    const OptionValue value = b.get(options);
+    std::string problem;
+    if (const auto* d = std::get_if<double>(&value); d && !std::isfinite(*d)) {
+      problem = "must be finite, got " + std::to_string(*d);
+    } else {
+      problem = schema.find(b.name)->violation(value);
+    }
     if (!problem.empty()) {
-      if (error) *error = problem;
+      if (error) *error = b.name + " " + problem;
       return false;
     }
   }
   return true;
 }
 
-/// Throws InputError (key = the option name) for an unknown key, listing the known ones.
-void throw_unknown_option(const std::string& key, const std::vector<std::string>& known);
-
-/// Defaults overridden by `values`, checked key by key and then as a whole with
-/// Options::validate(). Throws InputError naming the key (an unknown key lists the known ones).
-template <class Options>
-Options options_from_values(const std::vector<OptionBinding<Options>>& bindings,
-                            const OptionValues& values) {
-  Options options{};
-  for (const auto& [key, value] : values) {
-    const OptionBinding<Options>* binding = nullptr;
-    for (const auto& b : bindings)
-      if (b.description.name == key) binding = &b;
-    if (!binding) {
-      std::vector<std::string> known;
-      for (const auto& b : bindings) known.push_back(b.description.name);
-      throw_unknown_option(key, known);
-    }
-    const std::string problem = binding->description.check(value);
-    if (!problem.empty()) throw InputError({"", 0, key}, problem);
-    binding->set(options, value);
-  }
+/// The typed struct from options resolved against option_schema(bindings) (so keys, types
+/// and ranges are already checked; a mismatch is a programming error: std::logic_error).
+/// Cross-field constraints (Struct::validate) failing throw InputError naming the options.
+template <class Struct>
+Struct options_from(const std::vector<OptionBinding<Struct>>& bindings,
+                    const twill::Options& resolved, const std::string& owner) {
+  check_resolved_options(option_schema(bindings), resolved, owner);
+  Struct options{};
+  for (const auto& b : bindings) b.set(options, resolved.value(b.name));
   std::string error;
-  if (!options.validate(&error)) throw InputError({"", 0, ""}, error);
+  if (!options.validate(&error)) throw InputError({"", 0, ""}, owner + ": " + error);
   return options;
+}
+
+/// Every option's value (the resolved config of a struct).
+template <class Struct>
+twill::Options options_of(const std::vector<OptionBinding<Struct>>& bindings,
+                          const Struct& options) {
+  twill::Options out;
+  for (const auto& b : bindings) out.set(b.name, b.get(options));
+  return out;
 }
 
 }  // namespace twill

@@ -1,6 +1,6 @@
 #pragma once
 // Line search for the strong Wolfe conditions (Nocedal & Wright, Numerical Optimization,
-// 2nd ed., 2006, Alg. 3.5 "Line Search Algorithm" with Alg. 3.6 "zoom", pp. 60–61):
+// 2nd ed., 2006, Alg. 3.5 "Line Search Algorithm" with Alg. 3.6 "zoom", §3.5):
 //
 //   sufficient decrease   φ(α) ≤ φ(0) + c1 α φ'(0)          (N&W eq. 3.7a)
 //   curvature             |φ'(α)| ≤ c2 |φ'(0)|               (N&W eq. 3.7b)
@@ -9,7 +9,7 @@
 // Trial steps inside a bracket come from the minimiser of the cubic interpolating φ and φ' at
 // both ends (N&W eq. 3.59), kept at least 10% of the bracket away from its ends (else
 // Alg. 3.6 could creep towards one end); extrapolation multiplies α by 4 (N&W allow any
-// growing rule, p. 61; 4 is Moré & Thuente's largest extrapolation factor) until a bracket is
+// growing rule; 4 is Moré & Thuente's largest extrapolation factor) until a bracket is
 // found or α_max is reached. φ and φ' are always evaluated together: in twill
 // the gradient costs little once the value is computed (core/problem.hpp).
 //
@@ -25,7 +25,7 @@ namespace twill {
 
 struct LineSearchOptions {
   double c1 = 1e-4;          ///< sufficient-decrease constant, 0 < c1 < c2
-  double c2 = 0.9;           ///< curvature constant, c1 < c2 < 1 (0.9 for quasi-Newton, N&W p. 39)
+  double c2 = 0.9;           ///< curvature constant, c1 < c2 < 1 (0.9 for quasi-Newton, N&W §3.1)
   int max_evaluations = 20;  ///< evaluations of φ per line search
 
   /// Ceres IsValid style: false with the violated constraint in `error` (may be null).

@@ -72,14 +72,15 @@ double cst_energy(const MaterialLaw& law, double thickness_m, const CstReference
     S << dpsi[0], 0.5 * dpsi[2], 0.5 * dpsi[2], dpsi[1];
     const Eigen::Matrix3d coeff = scale * ref.beta * S * ref.beta.transpose();
     for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) hessian->block<3, 3>(3 * i, 3 * j).diagonal().array() += coeff(i, j);
+      for (int j = 0; j < 3; ++j)
+        hessian->block<3, 3>(3 * i, 3 * j).diagonal().array() += coeff(i, j);
   }
   return scale * psi;
 }
 
 Eigen::Matrix<double, 9, Eigen::Dynamic> cst_gradient_parameter_jacobian(
-    const MaterialLaw& law, double thickness_m, const CstReference& ref,
-    const Eigen::Vector3d& x0, const Eigen::Vector3d& x1, const Eigen::Vector3d& x2) {
+    const MaterialLaw& law, double thickness_m, const CstReference& ref, const Eigen::Vector3d& x0,
+    const Eigen::Vector3d& x1, const Eigen::Vector3d& x2) {
   StrainJacobian J;
   const Vector3 e = cst_strain(ref, x0, x1, x2, &J);
   StrainParameterMatrix mixed;

@@ -46,7 +46,7 @@ double cst_energy(const MaterialLaw& law, double thickness_m, const CstReference
 /// columns τĀ (∂e/∂x)ᵀ ∂²ψ/∂e∂k, and the thickness column Ā (∂e/∂x)ᵀ ∂ψ/∂e (the membrane is
 /// linear in τ). The density column is zero.
 Eigen::Matrix<double, 9, Eigen::Dynamic> cst_gradient_parameter_jacobian(
-    const MaterialLaw& law, double thickness_m, const CstReference& ref,
-    const Eigen::Vector3d& x0, const Eigen::Vector3d& x1, const Eigen::Vector3d& x2);
+    const MaterialLaw& law, double thickness_m, const CstReference& ref, const Eigen::Vector3d& x0,
+    const Eigen::Vector3d& x1, const Eigen::Vector3d& x2);
 
 }  // namespace twill

@@ -40,7 +40,8 @@ double dihedral_angle(const Eigen::Vector3d& x0, const Eigen::Vector3d& x1,
   const std::array<double, 4> cB = {(x1 - x3).dot(eh), (x3 - x0).dot(eh), 0.0, -l};
   if (gradient)
     for (int i = 0; i < 4; ++i)
-      gradient->segment<3>(3 * i) = cA[static_cast<size_t>(i)] * wA + cB[static_cast<size_t>(i)] * wB;
+      gradient->segment<3>(3 * i) =
+          cA[static_cast<size_t>(i)] * wA + cB[static_cast<size_t>(i)] * wB;
   if (!hessian) return theta;
 
   // ∂(n/|n|²)/∂n = (I − 2 n̂ n̂ᵀ)/|n|².
@@ -249,9 +250,8 @@ HingeClasses classify_hinges(const StripTriangulation& tri) {
   };
 
   // A 4 × 4-cell patch of the unperturbed pattern with the same cells.
-  const TrianglePattern base = tri.pattern == TrianglePattern::Irregular
-                                   ? TrianglePattern::Alternating
-                                   : tri.pattern;
+  const TrianglePattern base =
+      tri.pattern == TrianglePattern::Irregular ? TrianglePattern::Alternating : tri.pattern;
   StripSpec patch_spec;
   patch_spec.cells_along = 4;
   patch_spec.cells_across = 4;

@@ -48,7 +48,7 @@ double dihedral_angle(const Eigen::Vector3d& x0, const Eigen::Vector3d& x1,
 
 /// Reference data of one hinge from its flat stencil X0…X3 (same order as dihedral_angle).
 struct HingeReference {
-  double weight = 0;     ///< g_e = |ē|²/Ā_e (dimensionless)
+  double weight = 0;  ///< g_e = |ē|²/Ā_e (dimensionless)
   /// ℓ_e as the 3-vector (ℓ11, ℓ22, √2·ℓ12) [m], so θ_e ≈ mode · vec(K) with
   /// vec(K) = (K11, K22, √2·K12) for a small uniform curvature K [1/m] (Frobenius-isometric).
   Eigen::Vector3d mode = Eigen::Vector3d::Zero();

@@ -96,8 +96,8 @@ StripTriangulation triangulate_strip(const StripSpec& strip, TrianglePattern pat
   std::vector<DoubleTriMesh::VertexHandle> vh;
   vh.reserve(static_cast<size_t>(num_vertices));
   for (int v = 0; v < num_vertices; ++v)
-    vh.push_back(t.mesh.add_vertex(
-        DoubleTriMesh::Point(t.reference_xy(v, 0), t.reference_xy(v, 1), 0.0)));
+    vh.push_back(
+        t.mesh.add_vertex(DoubleTriMesh::Point(t.reference_xy(v, 0), t.reference_xy(v, 1), 0.0)));
   for (size_t f = 0; f < faces.size(); ++f) {
     const auto& tri = faces[f];
     // Perturbations below a quarter cell keep every triangle positively oriented

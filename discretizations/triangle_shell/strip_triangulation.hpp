@@ -19,9 +19,8 @@
 //
 // The mesh is an OpenMesh TriMesh with double-precision points (OpenMesh::Vec3d): its
 // connectivity gives the hinges (interior edges with their two opposite vertices).
-#include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
-
 #include <Eigen/Core>
+#include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
 #include <array>
 #include <cstdint>
 #include <string>

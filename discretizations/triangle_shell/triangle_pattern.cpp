@@ -6,11 +6,16 @@ namespace twill {
 
 std::string to_string(TrianglePattern pattern) {
   switch (pattern) {
-    case TrianglePattern::Right: return "right";
-    case TrianglePattern::Left: return "left";
-    case TrianglePattern::Alternating: return "alternating";
-    case TrianglePattern::Cross: return "cross";
-    case TrianglePattern::Irregular: return "irregular";
+    case TrianglePattern::Right:
+      return "right";
+    case TrianglePattern::Left:
+      return "left";
+    case TrianglePattern::Alternating:
+      return "alternating";
+    case TrianglePattern::Cross:
+      return "cross";
+    case TrianglePattern::Irregular:
+      return "irregular";
   }
   return "?";
 }

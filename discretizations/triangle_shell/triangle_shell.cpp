@@ -49,7 +49,8 @@ OptionSchema triangle_shell_option_schema() {
       .less_than(0.25);
   schema.add_int("seed", static_cast<std::int64_t>(d.seed), "irregular pattern: random seed")
       .at_least(0);
-  schema.add_int("threads", d.threads, "assembly threads (0 = TBB's choice, 1 = serial)").at_least(0);
+  schema.add_int("threads", d.threads, "assembly threads (0 = TBB's choice, 1 = serial)")
+      .at_least(0);
   return schema;
 }
 
@@ -64,9 +65,13 @@ TriangleShellOptions triangle_shell_options(const Options& resolved) {
 
 namespace {
 
-// A colour class is assembled in parallel only when it has this many elements: below it, TBB's
-// scheduling costs more than the work (measured: 16×24 alternating, ~180 hinges per class).
-constexpr size_t kParallelMinimum = 256;
+// Assembly slabs (see Impl::slabs) are at least this many cell columns wide (an element spans
+// at most 2 columns, so slabs of one parity never share a vertex), and there are at most this
+// many of them: enough tasks to balance a few threads, few enough that each is real work.
+constexpr int kMinSlabColumns = 3;
+constexpr int kMaxSlabs = 16;
+// Energy-only calls go parallel from this many elements on (below, scheduling costs more).
+constexpr size_t kParallelMinimum = 1024;
 
 constexpr int kTriangleBlockOffsets = 3 * 3 * 3;  // (a, b, column s) per triangle
 constexpr int kHingeBlockOffsets = 4 * 4 * 3;     // per hinge
@@ -127,9 +132,12 @@ struct TriangleShell::Impl {
   SparseMatrix pattern;  // Hessian sparsity, zero values
   std::vector<std::array<int, kTriangleBlockOffsets>> tri_offsets;
   std::vector<std::array<int, kHingeBlockOffsets>> hinge_offsets;
-  // Colour classes: triangles' classes, then hinges'; an element id < #faces is a triangle,
-  // otherwise hinge id − #faces.
-  std::vector<std::vector<int>> colours;
+  // Elements by slab of cell columns along x, in a fixed order (triangles, then hinges); an
+  // element id < #faces is a triangle, otherwise hinge id − #faces. Elements of slabs of equal
+  // parity share no vertex, so the even slabs are assembled in parallel, then the odd ones:
+  // two synchronisations per call, no write collisions, and every entry receives its
+  // contributions in the same order for any thread count (bitwise-deterministic results).
+  std::vector<std::vector<int>> slabs;
 
   // Point location: triangles overlapping each cell.
   std::vector<std::vector<int>> cell_triangles;
@@ -140,19 +148,24 @@ struct TriangleShell::Impl {
   int num_faces() const { return tri.num_faces(); }
   int num_hinges() const { return static_cast<int>(tri.hinges.size()); }
 
-  /// Runs f(element) for every element, colour class by colour class, in parallel within a
-  /// class (serially when threads == 1).
+  /// Runs f(element) for every element: even slabs (in parallel), then odd slabs.
   template <class F>
-  void for_each_coloured(F&& f) const {
-    for (const auto& colour : colours) {
-      if (threads == 1 || colour.size() < kParallelMinimum) {
-        for (int e : colour) f(e);
+  void for_each_by_slab(F&& f) const {
+    const size_t half = (slabs.size() + 1) / 2;
+    for (size_t parity = 0; parity < 2; ++parity) {
+      auto run = [&](size_t k) {
+        const size_t s = 2 * k + parity;
+        if (s < slabs.size())
+          for (int e : slabs[s]) f(e);
+      };
+      if (threads == 1 || slabs.size() < 4) {
+        for (size_t k = 0; k < half; ++k) run(k);
         continue;
       }
       arena.execute([&] {
-        tbb::parallel_for(tbb::blocked_range<size_t>(0, colour.size(), 32),
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, half, 1),
                           [&](const tbb::blocked_range<size_t>& r) {
-                            for (size_t k = r.begin(); k != r.end(); ++k) f(colour[k]);
+                            for (size_t k = r.begin(); k != r.end(); ++k) run(k);
                           });
       });
     }
@@ -170,8 +183,10 @@ TriangleShell::TriangleShell(const StripSpec& strip, const MaterialParameters& p
   impl_ = std::make_unique<Impl>();
   Impl& m = *impl_;
   m.threads = options.threads;
-  if (options.threads > 1) m.arena.initialize(options.threads);
-  else m.arena.initialize();
+  if (options.threads > 1)
+    m.arena.initialize(options.threads);
+  else
+    m.arena.initialize();
   m.tri = triangulate_strip(strip, options.pattern, options.perturbation, options.seed);
   const StripTriangulation& t = m.tri;
   const int nv = t.num_vertices();
@@ -241,28 +256,24 @@ TriangleShell::TriangleShell(const StripSpec& strip, const MaterialParameters& p
           m.hinge_offsets[h][(a * 4 + b) * 3 + static_cast<size_t>(s)] =
               offset(t.hinges[h].v[a], t.hinges[h].v[b], s);
 
-  // Greedy colouring, triangles and hinges separately: an element takes the smallest colour
-  // not yet used at any of its vertices.
-  auto colour_elements = [&](int count, int first_id, auto vertices_of) {
-    std::vector<std::uint64_t> used(static_cast<size_t>(nv), 0);
-    const size_t base = m.colours.size();
-    for (int e = 0; e < count; ++e) {
-      const auto vs = vertices_of(e);
-      std::uint64_t taken = 0;
-      for (int v : vs) taken |= used[static_cast<size_t>(v)];
-      int c = 0;
-      while (taken & (std::uint64_t{1} << c)) ++c;
-      if (c >= 64) throw std::logic_error("TriangleShell: more than 64 colours");
-      for (int v : vs) used[static_cast<size_t>(v)] |= std::uint64_t{1} << c;
-      if (base + static_cast<size_t>(c) >= m.colours.size()) m.colours.resize(base + static_cast<size_t>(c) + 1);
-      m.colours[base + static_cast<size_t>(c)].push_back(first_id + e);
-    }
-  };
-  colour_elements(t.num_faces(), 0, [&](int f) {
-    return std::array<int, 3>{t.faces(f, 0), t.faces(f, 1), t.faces(f, 2)};
-  });
-  colour_elements(m.num_hinges(), t.num_faces(),
-                  [&](int h) { return t.hinges[static_cast<size_t>(h)].v; });
+  // Slabs: an element belongs to the slab of its leftmost vertex column.
+  {
+    const int columns = t.cells_along;
+    const int num_slabs = std::clamp(columns / kMinSlabColumns, 1, kMaxSlabs);
+    m.slabs.assign(static_cast<size_t>(num_slabs), {});
+    auto slab_of = [&](const auto& vertices) {
+      int column = columns;
+      for (int v : vertices) column = std::min(column, t.half_column[static_cast<size_t>(v)] / 2);
+      return std::min(column * num_slabs / columns, num_slabs - 1);
+    };
+    for (int f = 0; f < t.num_faces(); ++f)
+      m.slabs[static_cast<size_t>(
+                  slab_of(std::array<int, 3>{t.faces(f, 0), t.faces(f, 1), t.faces(f, 2)}))]
+          .push_back(f);
+    for (int h = 0; h < m.num_hinges(); ++h)
+      m.slabs[static_cast<size_t>(slab_of(t.hinges[static_cast<size_t>(h)].v))].push_back(
+          t.num_faces() + h);
+  }
 
   // Point location grid (cells of the unperturbed pattern; perturbed triangles overlap at
   // most the neighbouring cells, found through their bounding boxes).
@@ -325,8 +336,10 @@ double TriangleShell::energy(const Eigen::VectorXd& q, Eigen::VectorXd* gradient
                    hessian->outerIndexPtr()) &&
         std::equal(m.pattern.innerIndexPtr(), m.pattern.innerIndexPtr() + m.pattern.nonZeros(),
                    hessian->innerIndexPtr());
-    if (same_pattern) hessian->coeffs().setZero();
-    else *hessian = m.pattern;
+    if (same_pattern)
+      hessian->coeffs().setZero();
+    else
+      *hessian = m.pattern;
     values = hessian->valuePtr();
   }
 
@@ -354,14 +367,12 @@ double TriangleShell::energy(const Eigen::VectorXd& q, Eigen::VectorXd* gradient
     const int h = id - nf;
     const auto hu = static_cast<size_t>(h);
     const Hinge& hinge = t.hinges[hu];
-    const double kg =
-        stiffness_.stiffness[m.classes.class_of_hinge[hu]] * m.hinge_weight[hu];
+    const double kg = stiffness_.stiffness[m.classes.class_of_hinge[hu]] * m.hinge_weight[hu];
     Vector12 dtheta;
     Matrix12 d2theta;
-    const double theta =
-        dihedral_angle(vertex(q, hinge.v[0]), vertex(q, hinge.v[1]), vertex(q, hinge.v[2]),
-                       vertex(q, hinge.v[3]), (gradient || hessian) ? &dtheta : nullptr,
-                       hessian ? &d2theta : nullptr);
+    const double theta = dihedral_angle(
+        vertex(q, hinge.v[0]), vertex(q, hinge.v[1]), vertex(q, hinge.v[2]), vertex(q, hinge.v[3]),
+        (gradient || hessian) ? &dtheta : nullptr, hessian ? &d2theta : nullptr);
     element_energy[static_cast<size_t>(id)] = kg * theta * theta;
     if (gradient)
       for (size_t a = 0; a < 4; ++a)
@@ -380,11 +391,11 @@ double TriangleShell::energy(const Eigen::VectorXd& q, Eigen::VectorXd* gradient
   };
 
   if (gradient || hessian) {
-    m.for_each_coloured(element);
+    m.for_each_by_slab(element);
   } else if (m.threads == 1 || element_energy.size() < 4 * kParallelMinimum) {
     for (int id = 0; id < static_cast<int>(element_energy.size()); ++id) element(id);
   } else {
-    // Energy only: each element writes its own slot, no colouring needed.
+    // Energy only: each element writes its own slot, any split is safe.
     m.arena.execute([&] {
       tbb::parallel_for(tbb::blocked_range<int>(0, static_cast<int>(element_energy.size()), 64),
                         [&](const tbb::blocked_range<int>& r) {
@@ -410,11 +421,13 @@ TriangleShellEnergyParts TriangleShell::energy_parts(const Eigen::VectorXd& q) c
   TriangleShellEnergyParts parts;
   const double tau = law_->parameters().thickness_m;
   for (int f = 0; f < m.num_faces(); ++f)
-    parts.membrane += cst_energy(*law_, tau, m.cst[static_cast<size_t>(f)], vertex(q, t.faces(f, 0)),
-                                 vertex(q, t.faces(f, 1)), vertex(q, t.faces(f, 2)));
+    parts.membrane +=
+        cst_energy(*law_, tau, m.cst[static_cast<size_t>(f)], vertex(q, t.faces(f, 0)),
+                   vertex(q, t.faces(f, 1)), vertex(q, t.faces(f, 2)));
   parts.bending = hinge_energies(q).sum();
   for (int v = 0; v < t.num_vertices(); ++v)
-    parts.gravity -= law_->parameters().density_kg_m2 * m.vertex_area[v] * gravity_.dot(vertex(q, v));
+    parts.gravity -=
+        law_->parameters().density_kg_m2 * m.vertex_area[v] * gravity_.dot(vertex(q, v));
   return parts;
 }
 
@@ -424,8 +437,8 @@ Eigen::VectorXd TriangleShell::hinge_energies(const Eigen::VectorXd& q) const {
   Eigen::VectorXd out(m.num_hinges());
   for (size_t h = 0; h < t.hinges.size(); ++h) {
     const auto& v = t.hinges[h].v;
-    const double theta = dihedral_angle(vertex(q, v[0]), vertex(q, v[1]), vertex(q, v[2]),
-                                        vertex(q, v[3]));
+    const double theta =
+        dihedral_angle(vertex(q, v[0]), vertex(q, v[1]), vertex(q, v[2]), vertex(q, v[3]));
     out[static_cast<Eigen::Index>(h)] =
         stiffness_.stiffness[m.classes.class_of_hinge[h]] * m.hinge_weight[h] * theta * theta;
   }
@@ -442,15 +455,14 @@ void TriangleShell::gradient_parameter_jacobian(const Eigen::VectorXd& q,
   Eigen::MatrixXd& J = *dgradient_dk;
   J.setZero(num_dofs(), nk);
   // Columns of the hinge stiffness derivative (hinge_bending.hpp: a11, a12, a22, G12, τ).
-  const std::array<int, 5> bending_columns = {FlatLayout::kA11, FlatLayout::kA12,
-                                              FlatLayout::kA22, FlatLayout::kG12,
-                                              FlatLayout::kThickness};
-  m.for_each_coloured([&](int id) {
+  const std::array<int, 5> bending_columns = {FlatLayout::kA11, FlatLayout::kA12, FlatLayout::kA22,
+                                              FlatLayout::kG12, FlatLayout::kThickness};
+  m.for_each_by_slab([&](int id) {
     if (id < nf) {
       const int v[3] = {t.faces(id, 0), t.faces(id, 1), t.faces(id, 2)};
-      const Eigen::Matrix<double, 9, Eigen::Dynamic> local = cst_gradient_parameter_jacobian(
-          *law_, tau, m.cst[static_cast<size_t>(id)], vertex(q, v[0]), vertex(q, v[1]),
-          vertex(q, v[2]));
+      const Eigen::Matrix<double, 9, Eigen::Dynamic> local =
+          cst_gradient_parameter_jacobian(*law_, tau, m.cst[static_cast<size_t>(id)],
+                                          vertex(q, v[0]), vertex(q, v[1]), vertex(q, v[2]));
       for (int a = 0; a < 3; ++a) J.middleRows<3>(3 * v[a]) += local.middleRows<3>(3 * a);
       return;
     }
@@ -529,7 +541,8 @@ SparseMatrix TriangleShell::point_evaluation(const std::vector<Eigen::Vector2d>&
                            std::to_string(x.y()) + ") m");
     for (int k = 0; k < 3; ++k)
       for (int r = 0; r < 3; ++r)
-        triplets.emplace_back(static_cast<int>(3 * p) + r, 3 * t.faces(best, k) + r, best_lambda[k]);
+        triplets.emplace_back(static_cast<int>(3 * p) + r, 3 * t.faces(best, k) + r,
+                              best_lambda[k]);
   }
   SparseMatrix P(static_cast<Eigen::Index>(3 * points.size()), num_dofs());
   P.setFromTriplets(triplets.begin(), triplets.end());

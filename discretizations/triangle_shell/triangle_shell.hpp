@@ -22,8 +22,9 @@
 //
 // Gradient and Hessian are exact (no projection). The Hessian pattern (3×3 blocks for every
 // vertex pair sharing a triangle or a hinge) is built once; assembly writes values only,
-// elements in parallel (TBB) by colour classes (elements of one colour share no vertex, so
-// writes never collide and results are bitwise deterministic for any thread count).
+// elements in parallel (TBB) by slabs of cell columns: even slabs, then odd ones (slabs of one
+// parity share no vertex, so writes never collide and results are bitwise deterministic for
+// any thread count).
 //
 // Clamps (clamped_nodes): the vertices on the end line, and with clamp_slope also the next
 // vertex column (for the cross pattern: every vertex of the end cell column, centres

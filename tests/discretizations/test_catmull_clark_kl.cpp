@@ -406,16 +406,17 @@ TEST_F(CatmullClarkKLDerivatives, ParameterJacobianMatchesFiniteDifferencesForEv
                         (column >= FlatLayout::kA11 && column <= FlatLayout::kG12);
     const bool alpha = name.find(".alpha[") != std::string::npos;
     const double h0 = (alpha ? 0.4 : 1e-2) * std::abs(k0[column]);
-    if (column == FlatLayout::kThickness) {  // τ moves the through-thickness points
-      MaterialParameters thick = p0;
-      thick.thickness_m += h0;
-      const auto before = law_arguments(d_, q_);
-      const auto after = law_arguments(CatmullClarkKL(d_.strip(), thick), q_);
-      for (int c = 0; c < 3; ++c)
-        for (size_t k = 0; k < before[static_cast<size_t>(c)].size(); ++k)
-          ASSERT_LT(std::abs(after[static_cast<size_t>(c)][k] - before[static_cast<size_t>(c)][k]),
-                    0.5 * design_.margin);
-    }
+    if (column == FlatLayout::kThickness)  // τ moves the through-thickness points
+      for (double sign : {-1.0, 1.0}) {
+        MaterialParameters thick = p0;
+        thick.thickness_m += sign * h0;
+        const auto before = law_arguments(d_, q_);
+        const auto after = law_arguments(CatmullClarkKL(d_.strip(), thick), q_);
+        for (int c = 0; c < 3; ++c)
+          for (size_t k = 0; k < before[static_cast<size_t>(c)].size(); ++k)
+            ASSERT_LT(std::abs(after[static_cast<size_t>(c)][k] - before[static_cast<size_t>(c)][k]),
+                      0.5 * design_.margin);
+      }
     const auto check = check_directional_derivative(gradient_at, k0, unit, dk.col(column), h0, 4, 1e-6);
     EXPECT_TRUE(check.ok) << name << ": " << check.report;
     if (!linear) {

@@ -60,8 +60,8 @@ TEST(DihedralAngle, GradientAndHessianConvergeAtSecondOrder) {
       Eigen::VectorXd v(12);
       for (int i = 0; i < 12; ++i) v[i] = n(rng);
       auto theta = [](const Eigen::VectorXd& p, Vector12* g, Matrix12* H) {
-        return dihedral_angle(p.segment<3>(0), p.segment<3>(3), p.segment<3>(6), p.segment<3>(9),
-                              g, H);
+        return dihedral_angle(p.segment<3>(0), p.segment<3>(3), p.segment<3>(6), p.segment<3>(9), g,
+                              H);
       };
       Vector12 g;
       Matrix12 H;
@@ -100,7 +100,8 @@ TEST(DihedralAngle, GradientAndHessianConvergeAtSecondOrder) {
 Eigen::VectorXd distorted_configuration(const TriangleShell& shell, std::uint64_t seed) {
   const Eigen::VectorXd& rest = shell.rest_positions();
   const double L = shell.strip().length_m;
-  const double h = std::min(shell.triangulation().cell_length_m, shell.triangulation().cell_width_m);
+  const double h =
+      std::min(shell.triangulation().cell_length_m, shell.triangulation().cell_width_m);
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> n(0.0, 1.0);
   Eigen::VectorXd q(rest.size());
@@ -123,10 +124,10 @@ StrainSample triangle_strains(const TriangleShell& shell, const Eigen::VectorXd&
   StrainSample s;
   for (int f = 0; f < t.num_faces(); ++f) {
     const auto X = [&](int k) { return Eigen::Vector2d(t.reference_xy.row(t.faces(f, k))); };
-    const CstReference ref = cst_reference(X(0), X(1), X(2), material_direction(angle, 0),
-                                           material_direction(angle, 1));
-    const Vector3 e = cst_strain(ref, q.segment<3>(3 * t.faces(f, 0)), q.segment<3>(3 * t.faces(f, 1)),
-                                 q.segment<3>(3 * t.faces(f, 2)));
+    const CstReference ref =
+        cst_reference(X(0), X(1), X(2), material_direction(angle, 0), material_direction(angle, 1));
+    const Vector3 e = cst_strain(ref, q.segment<3>(3 * t.faces(f, 0)),
+                                 q.segment<3>(3 * t.faces(f, 1)), q.segment<3>(3 * t.faces(f, 2)));
     s.e11.push_back(e[0]);
     s.e22.push_back(e[1]);
     s.e12.push_back(std::abs(e[2]));
@@ -268,10 +269,10 @@ TEST_P(TriangleShellDerivatives, ParameterJacobianConvergesAtSecondOrder) {
     shell_->energy(q_, &g, nullptr);
     return g;
   };
-  const std::vector<std::string> names = {
-      "density_kg_m2", "thickness_m",  "a11_Pa",         "a12_Pa",         "a22_Pa",
-      "G12_Pa",        "eta1.mu[1]",   "eta1.alpha[0]",  "eta3.alpha[1]",  "eta4.mu[1]",
-      "eta4.alpha[0]", "eta4.alpha[1]"};
+  const std::vector<std::string> names = {"density_kg_m2", "thickness_m",   "a11_Pa",
+                                          "a12_Pa",        "a22_Pa",        "G12_Pa",
+                                          "eta1.mu[1]",    "eta1.alpha[0]", "eta3.alpha[1]",
+                                          "eta4.mu[1]",    "eta4.alpha[0]", "eta4.alpha[1]"};
   for (const std::string& name : names) {
     const int i = params_.index_of(name);
     Eigen::VectorXd dir = Eigen::VectorXd::Zero(k0.size());
@@ -285,17 +286,16 @@ TEST_P(TriangleShellDerivatives, ParameterJacobianConvergesAtSecondOrder) {
   shell_->set_parameters(params_);
 }
 
-INSTANTIATE_TEST_SUITE_P(
-    Patterns, TriangleShellDerivatives,
-    ::testing::Values(DerivativeCase{TrianglePattern::Right, 0.45e-3},
-                      DerivativeCase{TrianglePattern::Cross, 0.45e-3},
-                      DerivativeCase{TrianglePattern::Irregular, 0.45e-3},
-                      DerivativeCase{TrianglePattern::Alternating, 5e-3},
-                      DerivativeCase{TrianglePattern::Irregular, 5e-3}),
-    [](const auto& test_info) {
-      return to_string(test_info.param.pattern) +
-             (test_info.param.thickness_m > 1e-3 ? "_thick" : "_thin");
-    });
+INSTANTIATE_TEST_SUITE_P(Patterns, TriangleShellDerivatives,
+                         ::testing::Values(DerivativeCase{TrianglePattern::Right, 0.45e-3},
+                                           DerivativeCase{TrianglePattern::Cross, 0.45e-3},
+                                           DerivativeCase{TrianglePattern::Irregular, 0.45e-3},
+                                           DerivativeCase{TrianglePattern::Alternating, 5e-3},
+                                           DerivativeCase{TrianglePattern::Irregular, 5e-3}),
+                         [](const auto& test_info) {
+                           return to_string(test_info.param.pattern) +
+                                  (test_info.param.thickness_m > 1e-3 ? "_thick" : "_thin");
+                         });
 
 // ---------------------------------------------------------------------------------------
 // Invariances and the patch test
@@ -366,8 +366,10 @@ TEST(TriangleShell, PatchTestReproducesUniformStrainForEveryPattern) {
     for (int v = 0; v < t.num_vertices(); ++v) {
       const auto& mesh_vertex = t.mesh.vertex_handle(static_cast<unsigned>(v));
       const double force = g.segment<3>(3 * v).norm();
-      if (t.mesh.is_boundary(mesh_vertex)) boundary = std::max(boundary, force);
-      else interior = std::max(interior, force);
+      if (t.mesh.is_boundary(mesh_vertex))
+        boundary = std::max(boundary, force);
+      else
+        interior = std::max(interior, force);
     }
     EXPECT_GT(boundary, 0.0);
     EXPECT_LT(interior, 1e-10 * boundary) << to_string(pattern);

@@ -2,6 +2,7 @@
 // (discretizations/triangle_shell/strip_triangulation.hpp, triangle_shell.hpp,
 // core/obj_writer.hpp).
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdlib>
@@ -11,8 +12,8 @@
 #include <set>
 #include <sstream>
 #include <string>
-#include <unistd.h>
 
+#include "core/config.hpp"
 #include "core/input_error.hpp"
 #include "core/obj_writer.hpp"
 #include "discretizations/triangle_shell/hinge_bending.hpp"
@@ -54,7 +55,8 @@ TEST(StripTriangulation, CountsOfEveryPattern) {
     EXPECT_EQ(static_cast<int>(t.mesh.n_faces()), F);
     // Every triangle counter-clockwise; hinge triangles as documented.
     for (int f = 0; f < F; ++f) {
-      const Eigen::Vector2d a = t.reference_xy.row(t.faces(f, 0)), b = t.reference_xy.row(t.faces(f, 1)),
+      const Eigen::Vector2d a = t.reference_xy.row(t.faces(f, 0)),
+                            b = t.reference_xy.row(t.faces(f, 1)),
                             c = t.reference_xy.row(t.faces(f, 2));
       EXPECT_GT((b - a).x() * (c - a).y() - (b - a).y() * (c - a).x(), 0.0);
     }
@@ -135,6 +137,20 @@ TEST(TriangleShellOptions, ValidationNamesTheField) {
   EXPECT_EQ(shell.name(), "triangle-shell");
 }
 
+TEST(TriangleShellOptions, RegistrySchemaMatchesTheOptions) {
+  const OptionSchema schema = triangle_shell_option_schema();
+  Options o = default_options(schema, nullptr);
+  const TriangleShellOptions d = triangle_shell_options(o), defaults;
+  EXPECT_EQ(d.pattern, defaults.pattern);
+  EXPECT_EQ(d.perturbation, defaults.perturbation);
+  EXPECT_EQ(d.seed, defaults.seed);
+  EXPECT_EQ(d.threads, defaults.threads);
+  apply_override(o, schema, nullptr, "pattern=cross");
+  EXPECT_EQ(triangle_shell_options(o).pattern, TrianglePattern::Cross);
+  EXPECT_THROW(apply_override(o, schema, nullptr, "pattern=diagonal"), InputError);
+  EXPECT_THROW(apply_override(o, schema, nullptr, "perturbation=0.25"), InputError);
+}
+
 TEST(TriangleShell, ClampedNodesAreTheEndColumns) {
   const int nx = 6, ny = 4;
   for (TrianglePattern pattern : all_triangle_patterns()) {
@@ -148,7 +164,8 @@ TEST(TriangleShell, ClampedNodesAreTheEndColumns) {
       EXPECT_EQ(static_cast<int>(line.size()), ny + 1);
       for (int v : line) EXPECT_EQ(X[3 * v], x_end);
       const std::vector<int> slope = shell.clamped_nodes(end, true);
-      EXPECT_EQ(static_cast<int>(slope.size()), 2 * (ny + 1) + (cross ? ny : 0)) << to_string(pattern);
+      EXPECT_EQ(static_cast<int>(slope.size()), 2 * (ny + 1) + (cross ? ny : 0))
+          << to_string(pattern);
       const std::set<int> slope_set(slope.begin(), slope.end());
       for (int v : line) EXPECT_TRUE(slope_set.count(v));
       // The extra nodes are the next column (centres of the end cells for cross); interior
@@ -163,10 +180,10 @@ TEST(TriangleShell, PointEvaluationInterpolatesAffineFieldsExactly) {
   for (TrianglePattern pattern : all_triangle_patterns()) {
     TriangleShell shell(strip(5, 7, 30.0), physical_parameters(), options(pattern));
     const StripSpec& s = shell.strip();
-    std::uniform_real_distribution<double> ux(0.0, s.length_m), uy(-0.5 * s.width_m, 0.5 * s.width_m);
-    std::vector<Eigen::Vector2d> points = {{0.0, -0.5 * s.width_m},
-                                           {s.length_m, 0.5 * s.width_m},
-                                           {0.5 * s.length_m, 0.0}};
+    std::uniform_real_distribution<double> ux(0.0, s.length_m),
+        uy(-0.5 * s.width_m, 0.5 * s.width_m);
+    std::vector<Eigen::Vector2d> points = {
+        {0.0, -0.5 * s.width_m}, {s.length_m, 0.5 * s.width_m}, {0.5 * s.length_m, 0.0}};
     for (int i = 0; i < 50; ++i) points.emplace_back(ux(rng), uy(rng));
     // Every vertex maps to itself.
     const Eigen::VectorXd& X = shell.rest_positions();
@@ -189,7 +206,9 @@ TEST(TriangleShell, PointEvaluationInterpolatesAffineFieldsExactly) {
     const Eigen::VectorXd ones = P * Eigen::VectorXd::Ones(shell.num_dofs());
     EXPECT_LT((ones - Eigen::VectorXd::Ones(ones.size())).cwiseAbs().maxCoeff(), 1e-13);
     EXPECT_GE(SparseMatrix(P).coeffs().minCoeff(), -1e-12);
-    EXPECT_EQ(input_error_key([&] { shell.point_evaluation({{0.01, 0.0}, {-0.001, 0.0}}); }),
+    EXPECT_EQ(input_error_key([&] {
+                shell.point_evaluation({{0.01, 0.0}, {-0.001, 0.0}});
+              }),
               "points[1]");
   }
 }
@@ -232,7 +251,8 @@ TEST(ObjWriter, WritesTheSurfaceWithFullDoublePrecision) {
   ASSERT_EQ(V.rows(), shell.num_nodes());
   EXPECT_EQ((F - shell.triangulation().faces).cwiseAbs().maxCoeff(), 0);
   const std::filesystem::path path =
-      std::filesystem::temp_directory_path() / ("twill_triangle_shell_" + std::to_string(::getpid()) + ".obj");
+      std::filesystem::temp_directory_path() /
+      ("twill_triangle_shell_" + std::to_string(::getpid()) + ".obj");
   write_obj(path.string(), V, F);
   std::ifstream in(path);
   std::string line;

@@ -72,7 +72,8 @@ inline Eigen::VectorXd cylinder_positions(const Eigen::VectorXd& rest, const Eig
 /// (core/discretization.hpp).
 inline Eigen::Vector2d material_direction(double angle_deg, int a) {
   const double t = angle_deg * M_PI / 180.0;
-  return a == 0 ? Eigen::Vector2d(-std::sin(t), std::cos(t)) : Eigen::Vector2d(std::cos(t), std::sin(t));
+  return a == 0 ? Eigen::Vector2d(-std::sin(t), std::cos(t))
+                : Eigen::Vector2d(std::cos(t), std::sin(t));
 }
 
 /// Kirchhoff–Love bending energy per unit area of the cylinder u⊗u/R:
@@ -83,8 +84,8 @@ inline double kirchhoff_love_cylinder_density(const MaterialParameters& p, doubl
   const double u1 = un.dot(material_direction(angle_deg, 0));
   const double u2 = un.dot(material_direction(angle_deg, 1));
   const double e1 = u1 * u1, e2 = u2 * u2, e3 = u1 * u2;
-  const double q = p.a11_Pa * e1 * e1 + 2 * p.a12_Pa * e1 * e2 + p.a22_Pa * e2 * e2 +
-                   2 * p.G12_Pa * e3 * e3;
+  const double q =
+      p.a11_Pa * e1 * e1 + 2 * p.a12_Pa * e1 * e2 + p.a22_Pa * e2 * e2 + 2 * p.G12_Pa * e3 * e3;
   const double t = p.thickness_m;
   return t * t * t / 24.0 * q / (radius * radius);
 }
@@ -93,7 +94,8 @@ inline double kirchhoff_love_cylinder_density(const MaterialParameters& p, doubl
 inline Eigen::VectorXd rigidly_moved(const Eigen::VectorXd& q, const Eigen::Matrix3d& R,
                                      const Eigen::Vector3d& b) {
   Eigen::VectorXd out(q.size());
-  for (Eigen::Index i = 0; i < q.size() / 3; ++i) out.segment<3>(3 * i) = R * q.segment<3>(3 * i) + b;
+  for (Eigen::Index i = 0; i < q.size() / 3; ++i)
+    out.segment<3>(3 * i) = R * q.segment<3>(3 * i) + b;
   return out;
 }
 

@@ -43,7 +43,7 @@ TEST(Failures, ThrowingObjectiveEndsTheRunWithTheMessage) {
       ThrowingRosenbrock problem(throw_at, true);
       const Eigen::VectorXd x0 = Rosenbrock::start(2);
       OptimizerResult result;
-      ASSERT_NO_THROW(result = make_optimizer(o.name, o.options)->minimize(problem, x0));
+      ASSERT_NO_THROW(result = o.make()->minimize(problem, x0));
       EXPECT_EQ(result.status, OptimizerStatus::failed);
       EXPECT_NE(result.message.find("equilibrium solve diverged in strip 3"), std::string::npos)
           << result.message;
@@ -66,8 +66,7 @@ TEST(Failures, NonStandardExceptionIsCaughtToo) {
     SCOPED_TRACE(o.label);
     ThrowingRosenbrock problem(3, false);
     OptimizerResult result;
-    ASSERT_NO_THROW(result =
-                        make_optimizer(o.name, o.options)->minimize(problem, Rosenbrock::start(2)));
+    ASSERT_NO_THROW(result = o.make()->minimize(problem, Rosenbrock::start(2)));
     EXPECT_EQ(result.status, OptimizerStatus::failed);
     EXPECT_NE(result.message.find("not derived from std::exception"), std::string::npos)
         << result.message;
@@ -88,8 +87,7 @@ TEST(Failures, ThrowingProgressHookEndsTheRun) {
   for (const auto& o : optimizer_cases()) {
     SCOPED_TRACE(o.label);
     ThrowingProgress problem;
-    const OptimizerResult result =
-        make_optimizer(o.name, o.options)->minimize(problem, Rosenbrock::start(2));
+    const OptimizerResult result = o.make()->minimize(problem, Rosenbrock::start(2));
     EXPECT_EQ(result.status, OptimizerStatus::failed);
     EXPECT_NE(result.message.find("progress log is full"), std::string::npos) << result.message;
     EXPECT_EQ(problem.progress_reports.size(), 3u);
@@ -125,8 +123,7 @@ TEST(Failures, FailedEvaluationsAreSteppedAround) {
     FailingBeyond problem(1.2);
     // From −3 the first full steps land beyond 1.2 (Gauss–Newton's at x ≈ 50, BFGS's
     // extrapolation at x ≈ 1.3): every method must meet at least one failed evaluation.
-    const OptimizerResult result =
-        make_optimizer(o.name, o.options)->minimize(problem, Eigen::VectorXd::Constant(1, -3.0));
+    const OptimizerResult result = o.make()->minimize(problem, Eigen::VectorXd::Constant(1, -3.0));
     if (o.name == "nlopt") {
       // NLopt cannot reject a trial point: a failed evaluation ends the run (documented).
       if (problem.failures > 0) {
@@ -148,8 +145,7 @@ TEST(Failures, NonFiniteValueAtTheStartFails) {
     SCOPED_TRACE(o.label);
     FailingBeyond problem(1.2);
     OptimizerResult result;
-    ASSERT_NO_THROW(result = make_optimizer(o.name, o.options)
-                                 ->minimize(problem, Eigen::VectorXd::Constant(1, 2.0)));
+    ASSERT_NO_THROW(result = o.make()->minimize(problem, Eigen::VectorXd::Constant(1, 2.0)));
     EXPECT_EQ(result.status, OptimizerStatus::failed) << result.message;
     EXPECT_EQ(result.x[0], 2.0);
   }

@@ -67,7 +67,7 @@ TEST(OptimizerMatrix, EveryOptimizerReachesEveryKnownMinimum) {
       if (skipped(o, p)) continue;
       SCOPED_TRACE(o.label + " on " + p.label);
       auto problem = p.make();
-      auto optimizer = make_optimizer(o.name, o.options);
+      auto optimizer = o.make();
       const OptimizerResult result = optimizer->minimize(*problem, p.start);
       const double error = (result.x - p.minimum).lpNorm<Eigen::Infinity>();
       std::printf("| %s | %s | %s | %d | %d | %d | %.1f | %.1e |\n", o.label.c_str(),
@@ -84,7 +84,7 @@ TEST(OptimizerMatrix, EveryOptimizerReachesEveryKnownMinimum) {
         EXPECT_EQ(problem->gradient_calls, 0);
       }
       EXPECT_LE(result.summary.objective_evaluations,
-                std::get<int>(optimizer->resolved_options().at("max_evaluations")));
+                optimizer->resolved_options().get_int("max_evaluations"));
       ASSERT_FALSE(result.summary.trace.empty());
       EXPECT_EQ(result.summary.iterations, static_cast<int>(result.summary.trace.size()) - 1);
       ASSERT_EQ(problem->progress_reports.size(), result.summary.trace.size());
@@ -128,8 +128,7 @@ TEST(OptimizerMatrix, EveryOptimizerFindsTheMinimumOnABound) {
     SCOPED_TRACE(o.label);
     Rosenbrock problem(2);
     problem.set_bounds(Eigen::Vector2d(-5.0, -5.0), Eigen::Vector2d(0.5, 5.0));
-    const OptimizerResult result =
-        make_optimizer(o.name, o.options)->minimize(problem, Rosenbrock::start(2));
+    const OptimizerResult result = o.make()->minimize(problem, Rosenbrock::start(2));
     EXPECT_EQ(result.status, OptimizerStatus::converged) << result.message;
     EXPECT_LE((result.x - Eigen::Vector2d(0.5, 0.25)).lpNorm<Eigen::Infinity>(),
               o.derivative_free ? 1e-5 : 1e-6)
@@ -148,10 +147,8 @@ TEST(OptimizerMatrix, EvaluationBudgetIsAHardCap) {
   for (const auto& o : optimizer_cases()) {
     SCOPED_TRACE(o.label);
     Rosenbrock problem(10);
-    OptionValues options = o.options;
-    options["max_evaluations"] = 10;
     const OptimizerResult result =
-        make_optimizer(o.name, options)->minimize(problem, Rosenbrock::start(10));
+        o.make({"max_evaluations=10"})->minimize(problem, Rosenbrock::start(10));
     EXPECT_EQ(result.status, OptimizerStatus::iteration_limit) << result.message;
     EXPECT_LE(problem.calls, 10);
     EXPECT_EQ(result.summary.objective_evaluations, problem.calls);
@@ -165,10 +162,8 @@ TEST(OptimizerMatrix, IterationLimitIsReported) {
     if (o.name == "nlopt") continue;  // NLopt has no iterations (nlopt_optimizer.hpp)
     SCOPED_TRACE(o.label);
     Rosenbrock problem(2);
-    OptionValues options = o.options;
-    options["max_iterations"] = 3;
     const OptimizerResult result =
-        make_optimizer(o.name, options)->minimize(problem, Rosenbrock::start(2));
+        o.make({"max_iterations=3"})->minimize(problem, Rosenbrock::start(2));
     EXPECT_EQ(result.status, OptimizerStatus::iteration_limit) << result.message;
     EXPECT_EQ(result.summary.iterations, 3);
     EXPECT_EQ(result.summary.trace.size(), 4u);

@@ -103,7 +103,7 @@ TEST(StrongWolfeLineSearch, MoreThuenteFunctionsFromEveryInitialStep) {
           line.function(), zero, alpha0, std::numeric_limits<double>::infinity(), options);
       expect_strong_wolfe(out, zero, options);
       EXPECT_EQ(out.evaluations, line.calls);
-      // Measured 1–15 (docs/optimizers.md); Moré & Thuente's own search needs 1–13 here.
+      // Measured 1–15 (docs/optimizers.md).
       EXPECT_LE(out.evaluations, 15);
     }
   }
