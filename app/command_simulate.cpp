@@ -61,8 +61,8 @@ std::vector<double> parse_list(const std::string& text) {
   return values;
 }
 
-DiscretizationFactory make_factory(const Registry& registry, const SimulateArgs& args) {
-  const auto& category = const_cast<Registry&>(registry).category<DiscretizationFactories>(registry_category::kDiscretization);
+DiscretizationFactory make_factory(Registry& registry, const SimulateArgs& args) {
+  const auto& category = registry.category<DiscretizationFactories>(registry_category::kDiscretization);
   const RegistryEntry& entry = category.at(args.discretization);
   OptionSchema wrapper;
   wrapper.add_section("d", "discretization options") = entry.options;
@@ -82,7 +82,7 @@ void write_mesh(const std::string& path, const Discretization& d, const Eigen::V
   write_obj(path, V, F);
 }
 
-void run_tensile(const Registry& registry, const SimulateArgs& args, const MaterialParameters& p) {
+void run_tensile(Registry& registry, const SimulateArgs& args, const MaterialParameters& p) {
   if (args.extensions.empty())
     throw InputError({"command line", 0, "--extensions-mm"}, "a tensile simulation needs --extensions-mm");
   TensileSetup setup;
@@ -134,7 +134,7 @@ void run_tensile(const Registry& registry, const SimulateArgs& args, const Mater
   if (!curve.completed) throw std::runtime_error("the tensile curve stopped early: " + curve.message);
 }
 
-void run_bend(const Registry& registry, const SimulateArgs& args, const MaterialParameters& p) {
+void run_bend(Registry& registry, const SimulateArgs& args, const MaterialParameters& p) {
   if (args.find_overhang == args.overhang_mm.has_value())
     throw InputError({"command line", 0, "--overhang-mm"}, "a bend simulation needs exactly one of --overhang-mm and --find-overhang");
   CantileverSetup setup;
