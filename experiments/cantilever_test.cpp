@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "core/constrained_dofs.hpp"
+#include "core/sensitivity.hpp"
 
 namespace twill {
 
@@ -77,6 +78,14 @@ CantileverResult CantileverExperiment::solve(double overhang_mm) const {
   result.newton_iterations = summary.total_newton_iterations;
   result.chord_angle_deg = std::atan2(-tip.z(), tip.x()) * 180.0 / std::numbers::pi;
   result.tip_deflection_mm = -1e3 * tip.z();
+  if (result.converged && !sensitivity_parameters_.empty()) {
+    // θ = atan2(−z, x) ⇒ dθ = (z dx − x dz) / (x² + z²), through the tip probe (tip = P q).
+    const EquilibriumSensitivity sens(solver, last_q_, sensitivity_parameters_);
+    const double r2 = tip.x() * tip.x() + tip.z() * tip.z();
+    const Eigen::Vector3d dtheta_dtip(tip.z() / r2, 0.0, -tip.x() / r2);
+    const Eigen::VectorXd dtheta_dq = tip_probe.transpose() * dtheta_dtip;
+    result.dchord_angle_dk = sens.observable_derivative(dtheta_dq) * (180.0 / std::numbers::pi);
+  }
   result.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }

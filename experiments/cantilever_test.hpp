@@ -23,6 +23,7 @@
 // to 0.02 %.
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "core/discretization.hpp"
 #include "core/equilibrium_solver.hpp"
@@ -51,6 +52,9 @@ struct CantileverResult {
   std::string message;
   int newton_iterations = 0;
   double wall_time_s = 0;
+  /// d(chord angle)/dk [deg per parameter unit] for the parameters chosen by
+  /// set_sensitivity_parameters() (paper Eq. 6); empty when none are chosen.
+  Eigen::VectorXd dchord_angle_dk;
 };
 
 struct OverhangSearchResult {
@@ -88,6 +92,11 @@ class CantileverExperiment {
   const CantileverSetup& setup() const { return setup_; }
   const MaterialParameters& parameters() const { return parameters_; }
   void set_parameters(const MaterialParameters& parameters) { parameters_ = parameters; }
+  /// Flat parameter indices (parameters.hpp) whose chord-angle derivatives solve() reports
+  /// (empty: none). Density enters through gravity, thickness and stiffnesses through Ψ.
+  void set_sensitivity_parameters(const std::vector<int>& flat_indices) {
+    sensitivity_parameters_ = flat_indices;
+  }
   /// Forget the previous equilibrium: the next solve starts from the flat strip.
   void reset_warm_start() { last_overhang_mm_ = 0; }
 
@@ -103,6 +112,7 @@ class CantileverExperiment {
   mutable std::unique_ptr<Discretization> last_discretization_;
   mutable Eigen::VectorXd last_q_;
   mutable double last_overhang_mm_ = 0;  ///< 0: no reusable equilibrium
+  std::vector<int> sensitivity_parameters_;
 };
 
 }  // namespace twill

@@ -86,6 +86,45 @@ double TensileExperiment::lateral_strain(const Eigen::VectorXd& q) const {
   return (p.segment<3>(3) - p.segment<3>(0)).norm() / (1e-3 * setup_.width_mm) - 1.0;
 }
 
+Eigen::VectorXd TensileExperiment::lateral_strain_gradient(const Eigen::VectorXd& q) const {
+  // s = |p_top − p_bottom| / W − 1  ⇒  ∂s/∂q = Pᵀ [−u; u] / W with u the unit chord.
+  const Eigen::VectorXd p = lateral_probe_ * q;
+  const Eigen::Vector3d chord = p.segment<3>(3) - p.segment<3>(0);
+  const Eigen::Vector3d u = chord / chord.norm();
+  Eigen::VectorXd w(6);
+  w << -u, u;
+  return lateral_probe_.transpose() * (w / (1e-3 * setup_.width_mm));
+}
+
+void TensileExperiment::set_sensitivity_parameters(const std::vector<int>& flat_indices) {
+  const int flat = discretization_->parameters().flat_size();
+  for (int p : flat_indices)
+    if (p < 0 || p >= flat)
+      throw std::invalid_argument("tensile sensitivity: parameter index " + std::to_string(p) +
+                                  " outside [0, " + std::to_string(flat) + ")");
+  sensitivity_parameters_ = flat_indices;
+}
+
+TensilePoint TensileExperiment::measure(double extension_mm, const Eigen::VectorXd& q,
+                                        const EquilibriumSummary& summary) const {
+  TensilePoint p;
+  p.extension_mm = extension_mm;
+  p.force_N = force_from_gradient(solver_.gradient());
+  p.lateral_strain = lateral_strain(q);
+  p.solve = summary;
+  if (!sensitivity_parameters_.empty()) {
+    const EquilibriumSensitivity sens(solver_, q, sensitivity_parameters_);
+    std::vector<std::pair<int, double>> clamp_x;
+    clamp_x.reserve(moving_nodes_.size());
+    for (int n : moving_nodes_) clamp_x.emplace_back(3 * n, 1.0);
+    p.dforce_dk = sens.reaction_derivative(clamp_x);
+    p.dlateral_strain_dk = sens.observable_derivative(lateral_strain_gradient(q));
+    if (keep_states_) p.dq_dk = sens.position_derivatives();
+  }
+  if (keep_states_) p.q = q;
+  return p;
+}
+
 TensileCurve TensileExperiment::run(const std::vector<double>& extensions_mm,
                                     const EquilibriumObserver& observer) {
   const auto start = std::chrono::steady_clock::now();
@@ -104,12 +143,7 @@ TensileCurve TensileExperiment::run(const std::vector<double>& extensions_mm,
     for (int n : moving_nodes_) (*x)[3 * n] = rest[3 * n] + u;
   };
   auto on_step = [&](int step, const Eigen::VectorXd& x, const EquilibriumSummary& summary) {
-    TensilePoint p;
-    p.extension_mm = extensions_mm[static_cast<size_t>(step)];
-    p.force_N = force_from_gradient(solver_.gradient());
-    p.lateral_strain = lateral_strain(x);
-    p.solve = summary;
-    curve.points.push_back(p);
+    curve.points.push_back(measure(extensions_mm[static_cast<size_t>(step)], x, summary));
     if (observer) observer(step, x, solver_);
   };
   const ContinuationSummary summary = solver_.solve_continuation(
@@ -117,6 +151,51 @@ TensileCurve TensileExperiment::run(const std::vector<double>& extensions_mm,
   curve.completed = summary.completed;
   curve.message = summary.message;
   curve.newton_iterations = summary.total_newton_iterations;
+  curve.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return curve;
+}
+
+TensileCurve TensileExperiment::run_from(const std::vector<double>& extensions_mm,
+                                         const std::vector<Eigen::VectorXd>& initial_guesses,
+                                         const EquilibriumObserver& observer) {
+  if (initial_guesses.size() != extensions_mm.size())
+    throw std::invalid_argument("run_from: " + std::to_string(initial_guesses.size()) +
+                                " initial guesses for " + std::to_string(extensions_mm.size()) +
+                                " extensions");
+  const auto start = std::chrono::steady_clock::now();
+  const Eigen::VectorXd& rest = discretization_->rest_positions();
+  TensileCurve curve;
+  curve.completed = true;
+  Eigen::VectorXd previous;
+  for (size_t i = 0; i < extensions_mm.size(); ++i) {
+    const double u = 1e-3 * extensions_mm[i];
+    auto with_schedule = [&](Eigen::VectorXd x) {
+      for (int n : fixed_dofs_) x[n] = rest[n];  // held dofs at rest, then the moving clamp
+      for (int n : moving_nodes_) x[3 * n] = rest[3 * n] + u;
+      return x;
+    };
+    if (initial_guesses[i].size() != rest.size())
+      throw std::invalid_argument("run_from: initial guess " + std::to_string(i) + " has " +
+                                  std::to_string(initial_guesses[i].size()) + " entries, expected " +
+                                  std::to_string(rest.size()));
+    Eigen::VectorXd q = with_schedule(initial_guesses[i]);
+    EquilibriumSummary summary = solver_.solve(&q);
+    curve.newton_iterations += summary.newton_iterations;
+    if (!summary.converged && previous.size() == q.size()) {
+      // The predictor was off (e.g. a large optimiser step): fall back to continuation.
+      q = with_schedule(previous);
+      summary = solver_.solve(&q);
+      curve.newton_iterations += summary.newton_iterations;
+    }
+    if (!summary.converged) {
+      curve.completed = false;
+      curve.message = "extension " + std::to_string(extensions_mm[i]) + " mm: " + summary.message;
+      break;
+    }
+    curve.points.push_back(measure(extensions_mm[i], q, summary));
+    if (observer) observer(static_cast<int>(i), q, solver_);
+    previous = q;
+  }
   curve.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return curve;
 }

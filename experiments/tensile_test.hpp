@@ -34,6 +34,7 @@
 
 #include "core/discretization.hpp"
 #include "core/equilibrium_solver.hpp"
+#include "core/sensitivity.hpp"
 #include "experiments/strip_factory.hpp"
 
 namespace twill {
@@ -56,6 +57,15 @@ struct TensilePoint {
   double force_N = 0;
   double lateral_strain = 0;
   EquilibriumSummary solve;  ///< what the equilibrium solve of this point did
+  /// Total derivatives in the parameters chosen by set_sensitivity_parameters() (paper Eq. 6,
+  /// core/sensitivity.hpp), one entry per chosen parameter [N resp. 1 per parameter unit];
+  /// empty when none are chosen.
+  Eigen::VectorXd dforce_dk;
+  Eigen::VectorXd dlateral_strain_dk;
+  /// ∂q/∂k at this point (#dofs × m), kept only with keep_states (warm starts of later runs).
+  Eigen::MatrixXd dq_dk;
+  /// The equilibrium (#dofs), kept only with keep_states.
+  Eigen::VectorXd q;
 };
 
 struct TensileCurve {
@@ -81,6 +91,19 @@ class TensileExperiment {
   /// then ends early with completed = false and a message.
   TensileCurve run(const std::vector<double>& extensions_mm,
                    const EquilibriumObserver& observer = {});
+  /// As run(), but point i starts from initial_guesses[i] (#dofs each; its held dofs are
+  /// overwritten by the schedule) instead of the previous point's equilibrium: used to warm
+  /// start a re-run at nearby parameters from q_i + ∂q_i/∂k·Δk (fitting). A point whose solve
+  /// from its guess fails is retried from the previous equilibrium.
+  TensileCurve run_from(const std::vector<double>& extensions_mm,
+                        const std::vector<Eigen::VectorXd>& initial_guesses,
+                        const EquilibriumObserver& observer = {});
+  /// Flat parameter indices (parameters.hpp) whose derivatives run() reports per point
+  /// (empty: none, the default). Throws std::invalid_argument for an index out of range.
+  void set_sensitivity_parameters(const std::vector<int>& flat_indices);
+  const std::vector<int>& sensitivity_parameters() const { return sensitivity_parameters_; }
+  /// Keep each point's equilibrium and ∂q/∂k in the curve (memory: #dofs × (m + 1) per point).
+  void set_keep_states(bool keep) { keep_states_ = keep; }
 
   /// Replaces the material (mesh and solver set-up are kept).
   void set_parameters(const MaterialParameters& parameters);
@@ -97,6 +120,8 @@ class TensileExperiment {
   /// Observables of a configuration: force [N] from a gradient (#dofs), lateral strain from q.
   double force_from_gradient(const Eigen::VectorXd& gradient) const;
   double lateral_strain(const Eigen::VectorXd& q) const;
+  /// ∂(lateral strain)/∂q at q (#dofs).
+  Eigen::VectorXd lateral_strain_gradient(const Eigen::VectorXd& q) const;
 
  private:
   TensileSetup setup_;
@@ -105,6 +130,11 @@ class TensileExperiment {
   std::vector<int> fixed_dofs_;
   SparseMatrix lateral_probe_;
   EquilibriumSolver solver_;
+  std::vector<int> sensitivity_parameters_;
+  bool keep_states_ = false;
+  // Observables (and derivatives) of the converged point at q.
+  TensilePoint measure(double extension_mm, const Eigen::VectorXd& q,
+                       const EquilibriumSummary& summary) const;
 };
 
 }  // namespace twill
