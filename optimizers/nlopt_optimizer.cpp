@@ -45,6 +45,7 @@ class Objective {
     Eigen::VectorXd x;
     double value;
     double gradient_norm;
+    bool non_finite_trial = false;  ///< the evaluation at x failed (see run())
   };
 
   Objective(CountedProblem& problem, const NloptOptions& options)
@@ -58,6 +59,8 @@ class Objective {
 
   const std::string& error() const { return error_; }
   const std::optional<Stop>& stop() const { return stop_; }
+  /// Forget the stop of the previous NLopt run (the best point is kept across restarts).
+  void reset_stop() { stop_.reset(); }
   bool has_best() const { return best_x_.size() > 0; }
   const Eigen::VectorXd& best_x() const { return best_x_; }
   double best_value() const { return best_value_; }
@@ -79,9 +82,10 @@ class Objective {
       // lets every improving point report its gradient norm.
       Eigen::VectorXd g;
       const double f = problem_.evaluate(xv, gradient_based_ ? &g : nullptr);
-      if (!std::isfinite(f))
+      if (!std::isfinite(f)) {
         stop_here(OptimizerStatus::failed, "evaluation failed (non-finite value) at a trial point",
                   xv, f, std::numeric_limits<double>::quiet_NaN());
+      }
       double gradient_norm = std::numeric_limits<double>::quiet_NaN();
       if (gradient_based_) {
         if (!gradient.empty()) Eigen::Map<Eigen::VectorXd>(gradient.data(), g.size()) = g;
@@ -112,7 +116,7 @@ class Objective {
 
   [[noreturn]] void stop_here(OptimizerStatus status, std::string message, const Eigen::VectorXd& x,
                               double value, double gradient_norm) {
-    stop_ = Stop{status, std::move(message), x, value, gradient_norm};
+    stop_ = Stop{status, std::move(message), x, value, gradient_norm, !std::isfinite(value)};
     throw nlopt::forced_stop();
   }
 
@@ -169,37 +173,81 @@ Options NloptOptimizer::resolved_options() const {
 void NloptOptimizer::run(CountedProblem& problem, Eigen::VectorXd x0,
                          OptimizerResult& result) const {
   const auto n = static_cast<unsigned>(problem.dimension());
-  nlopt::opt opt(algorithm_id(options_.algorithm), n);
   const auto as_vector = [](const Eigen::VectorXd& v) {
     return std::vector<double>(v.data(), v.data() + v.size());
   };
-  if (problem.bounded()) {
-    opt.set_lower_bounds(as_vector(problem.lower()));
-    opt.set_upper_bounds(as_vector(problem.upper()));
-  }
-  opt.set_ftol_rel(options_.function_tolerance);
-  opt.set_xtol_rel(options_.step_tolerance);
-  opt.set_maxeval(options_.max_evaluations);
-  if (options_.initial_step > 0.0) opt.set_initial_step(options_.initial_step);
-  if (options_.vector_storage > 0)
-    opt.set_vector_storage(static_cast<unsigned>(options_.vector_storage));
+  const double inf = std::numeric_limits<double>::infinity();
+  const Eigen::VectorXd lower =
+      problem.bounded() ? problem.lower() : Eigen::VectorXd::Constant(n, -inf);
+  const Eigen::VectorXd upper =
+      problem.bounded() ? problem.upper() : Eigen::VectorXd::Constant(n, inf);
 
   Objective objective(problem, options_);
-  opt.set_min_objective(&Objective::call, &objective);
-
   std::vector<double> x = as_vector(x0);
   double value = 0.0;
   std::optional<nlopt::result> code;
   std::string library_error;
   bool roundoff_limited = false;
-  try {
-    code = opt.optimize(x, value);
-  } catch (const nlopt::forced_stop&) {
-    // Our objective asked for it; objective.stop() or objective.error() says why.
-  } catch (const nlopt::roundoff_limited&) {
-    roundoff_limited = true;
-  } catch (const std::exception& e) {
-    library_error = e.what();
+
+  // Failed evaluations (core/problem.hpp: an equilibrium that does not converge, an invalid
+  // material) must be rejected points, but NLopt's algorithms cannot backtrack from one. The
+  // adapter therefore restarts NLopt from the best point inside a box of half-width r around
+  // it, r = half the distance to the failed trial (a trust region the library respects as
+  // bounds). When a boxed run ends on the box's edge (not on a real bound) the box is grown ×4
+  // and the run continues; at most kMaxRestarts restarts, all within max_evaluations.
+  constexpr int kMaxRestarts = 20;
+  double radius = inf;
+  for (int attempt = 0; attempt <= kMaxRestarts; ++attempt) {
+    nlopt::opt opt(algorithm_id(options_.algorithm), n);
+    const Eigen::VectorXd centre = objective.has_best() ? objective.best_x() : x0;
+    Eigen::VectorXd lo = lower, hi = upper;
+    if (std::isfinite(radius)) {
+      lo = lower.cwiseMax((centre.array() - radius).matrix());
+      hi = upper.cwiseMin((centre.array() + radius).matrix());
+    }
+    if (problem.bounded() || std::isfinite(radius)) {
+      opt.set_lower_bounds(as_vector(lo));
+      opt.set_upper_bounds(as_vector(hi));
+    }
+    opt.set_ftol_rel(options_.function_tolerance);
+    opt.set_xtol_rel(options_.step_tolerance);
+    opt.set_maxeval(std::max(1, options_.max_evaluations - problem.evaluations()));
+    if (options_.initial_step > 0.0) opt.set_initial_step(options_.initial_step);
+    if (options_.vector_storage > 0)
+      opt.set_vector_storage(static_cast<unsigned>(options_.vector_storage));
+    opt.set_min_objective(&Objective::call, &objective);
+
+    x = as_vector(centre);
+    objective.reset_stop();
+    code.reset();
+    roundoff_limited = false;
+    try {
+      code = opt.optimize(x, value);
+    } catch (const nlopt::forced_stop&) {
+      // Our objective asked for it; objective.stop() or objective.error() says why.
+    } catch (const nlopt::roundoff_limited&) {
+      roundoff_limited = true;
+    } catch (const std::exception& e) {
+      library_error = e.what();
+    }
+    if (!objective.error().empty() || !library_error.empty() || !objective.has_best()) break;
+    const auto& stop = objective.stop();
+    if (stop && stop->non_finite_trial) {
+      radius = 0.5 * (stop->x - objective.best_x()).lpNorm<Eigen::Infinity>();
+      if (!(radius > 0)) break;
+      continue;
+    }
+    if (stop || !std::isfinite(radius) || !code) break;
+    // Converged inside the box: done unless the best point sits on an artificial edge.
+    const Eigen::VectorXd& best = objective.best_x();
+    bool on_edge = false;
+    for (unsigned i = 0; i < n; ++i) {
+      const double tol = 1e-9 * std::max(1.0, std::abs(best[i]));
+      if ((best[i] - lo[i] <= tol && lo[i] > lower[i]) || (hi[i] - best[i] <= tol && hi[i] < upper[i]))
+        on_edge = true;
+    }
+    if (!on_edge) break;
+    radius *= 4;
   }
 
   if (objective.has_best()) {

@@ -21,9 +21,13 @@
 //   minimum on badly scaled problems (docs/optimizers.md lists measured cases).
 // - Exceptions never cross into NLopt's C code: the objective wrapper catches everything,
 //   remembers the message and throws nlopt::forced_stop, which NLopt's C++ wrapper turns into
-//   a graceful stop; the run ends with status failed and the caught message. A failed
-//   (non-finite) evaluation also stops the run (status failed): NLopt has no protocol for
-//   rejecting a trial point.
+//   a graceful stop; the run ends with status failed and the caught message.
+// - A failed (non-finite) evaluation: NLopt has no protocol for rejecting a trial point, so the
+//   adapter stops NLopt and restarts it from the best point inside a box of half-width
+//   r = ½‖x_failed − x_best‖∞ around it (a trust region passed as bounds); a run that ends on
+//   the box's edge continues with the box grown ×4. At most 20 restarts, all within
+//   max_evaluations. (Measured need: LD_LBFGS's first step on a cloth fit jumps to the lower
+//   stiffness bound, where the material is invalid.)
 // - result.x is the best point evaluated; final_gradient_norm is NaN for derivative-free
 //   algorithms (no gradient is ever computed).
 #include <string>

@@ -124,14 +124,11 @@ TEST(Failures, FailedEvaluationsAreSteppedAround) {
     // From −3 the first full steps land beyond 1.2 (Gauss–Newton's at x ≈ 50, BFGS's
     // extrapolation at x ≈ 1.3): every method must meet at least one failed evaluation.
     const OptimizerResult result = o.make()->minimize(problem, Eigen::VectorXd::Constant(1, -3.0));
-    if (o.name == "nlopt") {
-      // NLopt cannot reject a trial point: a failed evaluation ends the run (documented).
-      if (problem.failures > 0) {
-        EXPECT_EQ(result.status, OptimizerStatus::failed);
-        EXPECT_NE(result.message.find("non-finite"), std::string::npos) << result.message;
-      } else {
-        EXPECT_NEAR(result.x[0], 1.0, 1e-5) << result.message;
-      }
+    // NLopt cannot reject a trial point itself; the adapter restarts it in a box around the
+    // best point (nlopt_optimizer.cpp), so it must step around failures like the others.
+    // (Some NLopt algorithms never step beyond 1.2 from −3: then there is nothing to reject.)
+    if (o.name == "nlopt" && problem.failures == 0) {
+      EXPECT_NEAR(result.x[0], 1.0, 1e-5) << result.message;
       continue;
     }
     EXPECT_GE(problem.failures, 1);

@@ -1,0 +1,83 @@
+#pragma once
+// The simulated tests as Predictors of the fit objective (core/fit_objective.hpp, paper Eq. 3).
+//
+// TensilePredictor: a tensile strip run at the measured extensions; predictions are the clamp
+// forces [N] (paper §5.5.1), derivatives by implicit differentiation at every point (Eq. 6).
+// Warm start across evaluations (paper §5.5.3 "reuse"): after an evaluation with derivatives,
+// each point's equilibrium q_i and ∂q_i/∂k are kept; a later evaluation at k starts point i
+// from q_i + ∂q_i/∂k (k − k_anchor) instead of continuing from the previous point, which
+// typically leaves one or two Newton iterations per point. A point whose solve fails from the
+// prediction is retried by continuation (tensile_test.hpp run_from).
+//
+// CantileverPredictor: the D1388 cantilever at a measured overhang; the prediction is the
+// chord angle [deg], measured 41.5° (paper §4, §5.2 step 7).
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/fit_objective.hpp"
+#include "experiments/cantilever_test.hpp"
+#include "experiments/tensile_test.hpp"
+
+namespace twill {
+
+class TensilePredictor : public Predictor {
+ public:
+  /// extensions_mm and forces_N: the measured points (same size, forces ≠ 0).
+  TensilePredictor(std::string label, const TensileSetup& setup,
+                   const DiscretizationFactory& factory, const MaterialParameters& start,
+                   std::vector<double> extensions_mm, const Eigen::VectorXd& forces_N,
+                   const EquilibriumOptions& solver = {});
+
+  std::string label() const override { return label_; }
+  const Eigen::VectorXd& measured() const override { return measured_; }
+  bool predict(const MaterialParameters& k, const std::vector<int>& flat, Eigen::VectorXd* values,
+               Eigen::MatrixXd* jacobian, std::string* message) override;
+  long equilibrium_solves() const override { return solves_; }
+
+  /// Turn warm starts across evaluations off (for comparisons; on by default).
+  void set_warm_start(bool on) { warm_start_ = on; }
+  const std::vector<double>& extensions_mm() const { return extensions_mm_; }
+  /// The last successful curve (predictions and solver summaries).
+  const TensileCurve& last_curve() const { return last_curve_; }
+  TensileExperiment& experiment() { return experiment_; }
+
+ private:
+  std::string label_;
+  TensileExperiment experiment_;
+  std::vector<double> extensions_mm_;
+  Eigen::VectorXd measured_;
+  bool warm_start_ = true;
+  long solves_ = 0;
+  TensileCurve last_curve_;
+  // Anchor of the warm start: flat k, the indices of dq/dk's columns, states per point.
+  Eigen::VectorXd anchor_k_;
+  std::vector<int> anchor_flat_;
+  std::vector<Eigen::VectorXd> anchor_q_;
+  std::vector<Eigen::MatrixXd> anchor_dq_;
+};
+
+class CantileverPredictor : public Predictor {
+ public:
+  CantileverPredictor(std::string label, const CantileverSetup& setup,
+                      const DiscretizationFactory& factory, const MaterialParameters& start,
+                      double overhang_mm, double measured_angle_deg = kD1388ChordAngle_deg,
+                      const EquilibriumOptions& solver = {});
+
+  std::string label() const override { return label_; }
+  const Eigen::VectorXd& measured() const override { return measured_; }
+  bool predict(const MaterialParameters& k, const std::vector<int>& flat, Eigen::VectorXd* values,
+               Eigen::MatrixXd* jacobian, std::string* message) override;
+  long equilibrium_solves() const override { return solves_; }
+  double overhang_mm() const { return overhang_mm_; }
+  CantileverExperiment& experiment() { return experiment_; }
+
+ private:
+  std::string label_;
+  CantileverExperiment experiment_;
+  double overhang_mm_;
+  Eigen::VectorXd measured_;
+  long solves_ = 0;
+};
+
+}  // namespace twill
