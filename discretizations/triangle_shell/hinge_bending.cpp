@@ -130,21 +130,27 @@ HingeCalibration::HingeCalibration(std::vector<Eigen::Matrix3d> class_response, 
   }
 }
 
+double kirchhoff_love_cylinder_energy(const MaterialParameters& p, const Eigen::Vector3d& e,
+                                      Eigen::Matrix<double, 1, 5>* derivative) {
+  const double tau = p.thickness_m, c = tau * tau * tau / 24.0;
+  // ẽᵀCẽ with C = ∂²ψ/∂ẽ²(0) = [[a11, a12, 0], [a12, a22, 0], [0, 0, 2 G12]]: ψ has
+  // G12·Ẽ12² (not 2·G12·Ẽ12²), and ηj'(0) = 1 makes the curves drop out at zero strain.
+  const double q = p.a11_Pa * e[0] * e[0] + 2.0 * p.a12_Pa * e[0] * e[1] +
+                   p.a22_Pa * e[1] * e[1] + 2.0 * p.G12_Pa * e[2] * e[2];
+  if (derivative)
+    *derivative << c * e[0] * e[0], c * 2.0 * e[0] * e[1], c * e[1] * e[1], c * 2.0 * e[2] * e[2],
+        3.0 * c / tau * q;
+  return c * q;
+}
+
 Eigen::Vector4d HingeCalibration::kirchhoff_love_targets(
     const MaterialParameters& p, Eigen::Matrix<double, 4, 5>* derivative) const {
-  const double tau = p.thickness_m, c = tau * tau * tau / 24.0;
   Eigen::Vector4d t;
   for (int j = 0; j < kCalibrationCylinders; ++j) {
-    const double e1 = cylinder_strain_(j, 0), e2 = cylinder_strain_(j, 1),
-                 e3 = cylinder_strain_(j, 2);
-    // ẽᵀCẽ with C = ∂²ψ/∂ẽ²(0) = [[a11, a12, 0], [a12, a22, 0], [0, 0, 2 G12]]: ψ has
-    // G12·Ẽ12² (not 2·G12·Ẽ12²), and ηj'(0) = 1 makes the curves drop out at zero strain.
-    const double q = p.a11_Pa * e1 * e1 + 2.0 * p.a12_Pa * e1 * e2 + p.a22_Pa * e2 * e2 +
-                     2.0 * p.G12_Pa * e3 * e3;
-    t[j] = c * q;
-    if (derivative)
-      derivative->row(j) << c * e1 * e1, c * 2.0 * e1 * e2, c * e2 * e2, c * 2.0 * e3 * e3,
-          3.0 * c / tau * q;
+    Eigen::Matrix<double, 1, 5> row;
+    t[j] = kirchhoff_love_cylinder_energy(p, cylinder_strain_.row(j).transpose(),
+                                          derivative ? &row : nullptr);
+    if (derivative) derivative->row(j) = row;
   }
   return t;
 }

@@ -61,6 +61,12 @@ HingeReference hinge_reference(const Eigen::Vector2d& X0, const Eigen::Vector2d&
 inline constexpr int kCalibrationCylinders = 4;
 std::vector<std::string> calibration_cylinder_names();  // "warp", "weft", "+45", "-45"
 
+/// Kirchhoff–Love bending energy per unit area of a cylinder at unit curvature, τ³/24 ẽᵀCẽ
+/// [J/m² · m²], for its orthotropic curvature ẽ = (ũ1², ũ2², ũ1ũ2) (u the bending direction,
+/// ũ its warp/weft components), and optionally its derivative in (a11, a12, a22, G12, τ).
+double kirchhoff_love_cylinder_energy(const MaterialParameters& p, const Eigen::Vector3d& e,
+                                      Eigen::Matrix<double, 1, 5>* derivative = nullptr);
+
 /// Class stiffnesses and their derivatives (HingeCalibration::solve()).
 struct HingeClassStiffness {
   Eigen::VectorXd stiffness;  ///< k_c per class [J]

@@ -21,6 +21,28 @@
 
 namespace twill {
 
+std::string to_string(StripEnds ends) {
+  switch (ends) {
+    case StripEnds::None: return "none";
+    case StripEnds::Start: return "start";
+    case StripEnds::End: return "end";
+    case StripEnds::Both: return "both";
+  }
+  return "none";
+}
+
+StripEnds strip_ends_from_string(const std::string& text) {
+  for (StripEnds e : {StripEnds::None, StripEnds::Start, StripEnds::End, StripEnds::Both})
+    if (to_string(e) == text) return e;
+  throw InputError({"", 0, "clamp_hinges"},
+                   "unknown strip ends '" + text + "' (known: none, start, end, both)");
+}
+
+bool includes(StripEnds ends, StripEnd end) {
+  return ends == StripEnds::Both || (end == StripEnd::Start && ends == StripEnds::Start) ||
+         (end == StripEnd::End && ends == StripEnds::End);
+}
+
 std::string TriangleShellOptions::validate() const {
   std::ostringstream os;
   if (!(perturbation >= 0.0 && perturbation < 0.25)) {
@@ -51,6 +73,11 @@ OptionSchema triangle_shell_option_schema() {
       .at_least(0);
   schema.add_int("threads", d.threads, "assembly threads (0 = TBB's choice, 1 = serial)")
       .at_least(0);
+  schema
+      .add_string("clamp_hinges", to_string(d.clamp_hinges),
+                  "ends whose slope clamp is a hinge against the rest plane instead of a rigid "
+                  "first cell column (cantilever: start)")
+      .choices({"none", "start", "end", "both"});
   return schema;
 }
 
@@ -60,6 +87,7 @@ TriangleShellOptions triangle_shell_options(const Options& resolved) {
   o.perturbation = resolved.get_double("perturbation");
   o.seed = static_cast<std::uint64_t>(resolved.get_int("seed"));
   o.threads = static_cast<int>(resolved.get_int("threads"));
+  o.clamp_hinges = strip_ends_from_string(resolved.get_string("clamp_hinges"));
   return o;
 }
 
@@ -121,8 +149,19 @@ Eigen::Vector3d vertex(const Eigen::VectorXd& q, int v) { return q.segment<3>(3 
 
 }  // namespace
 
+/// A boundary edge on a clamped end line, hinged against a ghost triangle fixed in the rest
+/// plane (triangle_shell.hpp, docs/triangle_shell.md §8). v = (x0, x1, x2) is the real
+/// triangle counter-clockwise, local[a] the face-local index of v[a].
+struct ClampHinge {
+  int face = 0;
+  std::array<int, 3> v{}, local{};
+  Eigen::Vector3d ghost = Eigen::Vector3d::Zero();  ///< apex of (x1, x0, ghost) at rest
+  double weight = 0;                                ///< g_b = |ē|²/(Ā_T/3)
+};
+
 struct TriangleShell::Impl {
   StripTriangulation tri;
+  std::vector<ClampHinge> clamp_hinges;
   std::vector<CstReference> cst;     // per face
   std::vector<double> hinge_weight;  // g_e per hinge
   HingeClasses classes;
@@ -147,6 +186,10 @@ struct TriangleShell::Impl {
 
   int num_faces() const { return tri.num_faces(); }
   int num_hinges() const { return static_cast<int>(tri.hinges.size()); }
+  /// Element ids: triangles, then hinges, then clamp hinges.
+  int num_elements() const {
+    return num_faces() + num_hinges() + static_cast<int>(clamp_hinges.size());
+  }
 
   /// Runs f(element) for every element: even slabs (in parallel), then odd slabs.
   template <class F>
@@ -211,6 +254,27 @@ TriangleShell::TriangleShell(const StripSpec& strip, const MaterialParameters& p
     };
     m.hinge_weight.push_back(hinge_reference(X(0), X(1), X(2), X(3)).weight);
   }
+  // Clamp hinges: every boundary edge on a selected end line, with the ghost apex the mirror
+  // image of the real apex across that line (so (x1, x0, ghost) is counter-clockwise and flat).
+  for (int f = 0; f < t.num_faces(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      ClampHinge c;
+      c.face = f;
+      c.local = {k, (k + 1) % 3, (k + 2) % 3};
+      for (int a = 0; a < 3; ++a) c.v[a] = t.faces(f, c.local[a]);
+      const int hc0 = t.half_column[c.v[0]], hc1 = t.half_column[c.v[1]];
+      const bool on_start = hc0 == 0 && hc1 == 0;
+      const bool on_end = hc0 == 2 * t.cells_along && hc1 == 2 * t.cells_along;
+      if (!((on_start && includes(options.clamp_hinges, StripEnd::Start)) ||
+            (on_end && includes(options.clamp_hinges, StripEnd::End))))
+        continue;
+      const double line_x = on_start ? 0.0 : strip.length_m;
+      const Eigen::Vector2d apex = t.reference_xy.row(c.v[2]);
+      c.ghost = Eigen::Vector3d(2.0 * line_x - apex.x(), apex.y(), 0.0);
+      const double edge2 = (t.reference_xy.row(c.v[1]) - t.reference_xy.row(c.v[0])).squaredNorm();
+      c.weight = edge2 / (m.cst[static_cast<size_t>(f)].area / 3.0);
+      m.clamp_hinges.push_back(c);
+    }
   m.classes = classify_hinges(t);
   m.calibration = std::make_unique<HingeCalibration>(m.classes.response, strip.angle_deg);
 
@@ -273,6 +337,9 @@ TriangleShell::TriangleShell(const StripSpec& strip, const MaterialParameters& p
     for (int h = 0; h < m.num_hinges(); ++h)
       m.slabs[static_cast<size_t>(slab_of(t.hinges[static_cast<size_t>(h)].v))].push_back(
           t.num_faces() + h);
+    for (size_t c = 0; c < m.clamp_hinges.size(); ++c)
+      m.slabs[static_cast<size_t>(slab_of(m.clamp_hinges[c].v))].push_back(
+          t.num_faces() + m.num_hinges() + static_cast<int>(c));
   }
 
   // Point location grid (cells of the unperturbed pattern; perturbed triangles overlap at
@@ -324,7 +391,9 @@ double TriangleShell::energy(const Eigen::VectorXd& q, Eigen::VectorXd* gradient
   const double tau = law_->parameters().thickness_m;
   const double rho = law_->parameters().density_kg_m2;
   const int nf = m.num_faces();
-  std::vector<double> element_energy(static_cast<size_t>(nf + m.num_hinges()), 0.0);
+  const int nh = m.num_hinges();
+  const double clamp_k = clamp_hinge_stiffness();
+  std::vector<double> element_energy(static_cast<size_t>(m.num_elements()), 0.0);
 
   if (gradient) gradient->setZero(num_dofs());
   double* values = nullptr;
@@ -359,6 +428,35 @@ double TriangleShell::energy(const Eigen::VectorXd& q, Eigen::VectorXd* gradient
           for (int b = 0; b < 3; ++b)
             for (int s = 0; s < 3; ++s) {
               double* dst = values + off[static_cast<size_t>((a * 3 + b) * 3 + s)];
+              for (int r = 0; r < 3; ++r) dst[r] += H(3 * a + r, 3 * b + s);
+            }
+      }
+      return;
+    }
+    if (id >= nf + nh) {
+      // Clamp hinge: the ghost apex is fixed, so only the 9×9 block of the real triangle's
+      // vertices enters, and it lands on that triangle's blocks of the pattern.
+      const ClampHinge& c = m.clamp_hinges[static_cast<size_t>(id - nf - nh)];
+      const double kg = clamp_k * c.weight;
+      Vector12 dtheta;
+      Matrix12 d2theta;
+      const double theta =
+          dihedral_angle(vertex(q, c.v[0]), vertex(q, c.v[1]), vertex(q, c.v[2]), c.ghost,
+                         (gradient || hessian) ? &dtheta : nullptr, hessian ? &d2theta : nullptr);
+      element_energy[static_cast<size_t>(id)] = kg * theta * theta;
+      if (gradient)
+        for (int a = 0; a < 3; ++a)
+          gradient->segment<3>(3 * c.v[a]) += 2.0 * kg * theta * dtheta.segment<3>(3 * a);
+      if (hessian) {
+        const Matrix9 H = 2.0 * kg *
+                          (dtheta.head<9>() * dtheta.head<9>().transpose() +
+                           theta * d2theta.topLeftCorner<9, 9>());
+        const auto& off = m.tri_offsets[static_cast<size_t>(c.face)];
+        for (int a = 0; a < 3; ++a)
+          for (int b = 0; b < 3; ++b)
+            for (int s = 0; s < 3; ++s) {
+              double* dst =
+                  values + off[static_cast<size_t>((c.local[a] * 3 + c.local[b]) * 3 + s)];
               for (int r = 0; r < 3; ++r) dst[r] += H(3 * a + r, 3 * b + s);
             }
       }
@@ -424,7 +522,7 @@ TriangleShellEnergyParts TriangleShell::energy_parts(const Eigen::VectorXd& q) c
     parts.membrane +=
         cst_energy(*law_, tau, m.cst[static_cast<size_t>(f)], vertex(q, t.faces(f, 0)),
                    vertex(q, t.faces(f, 1)), vertex(q, t.faces(f, 2)));
-  parts.bending = hinge_energies(q).sum();
+  parts.bending = hinge_energies(q).sum() + clamp_hinge_energies(q).sum();
   for (int v = 0; v < t.num_vertices(); ++v)
     parts.gravity -=
         law_->parameters().density_kg_m2 * m.vertex_area[v] * gravity_.dot(vertex(q, v));
@@ -445,6 +543,34 @@ Eigen::VectorXd TriangleShell::hinge_energies(const Eigen::VectorXd& q) const {
   return out;
 }
 
+Eigen::VectorXd TriangleShell::clamp_hinge_energies(const Eigen::VectorXd& q) const {
+  const Impl& m = *impl_;
+  const double k = clamp_hinge_stiffness();
+  Eigen::VectorXd out(static_cast<Eigen::Index>(m.clamp_hinges.size()));
+  for (size_t i = 0; i < m.clamp_hinges.size(); ++i) {
+    const ClampHinge& c = m.clamp_hinges[i];
+    const double theta =
+        dihedral_angle(vertex(q, c.v[0]), vertex(q, c.v[1]), vertex(q, c.v[2]), c.ghost);
+    out[static_cast<Eigen::Index>(i)] = k * c.weight * theta * theta;
+  }
+  return out;
+}
+
+double TriangleShell::clamp_hinge_stiffness(Eigen::Matrix<double, 1, 5>* derivative) const {
+  // k_b = W_cyl(x̂)/3: the cylinder z = κx²/2 across the end line tilts a clamp-hinge
+  // triangle with apex at distance a from the line by θ = κa/2, and the hinge should carry
+  // the KL energy of the half of that triangle's strip next to the line, W_cyl κ² Ā_T
+  // (docs/triangle_shell.md §8); with g_b = 3|ē|²/Ā_T and Ā_T = |ē| a/2 this is W_cyl/3 for
+  // every apex position. ũ = (x̂·d1, x̂·d2) = (−sin θ_m, cos θ_m) (core/discretization.hpp).
+  const double angle = strip_.angle_deg * std::numbers::pi / 180.0;
+  const double u1 = -std::sin(angle), u2 = std::cos(angle);
+  const double w = kirchhoff_love_cylinder_energy(law_->parameters(),
+                                                  Eigen::Vector3d(u1 * u1, u2 * u2, u1 * u2),
+                                                  derivative);
+  if (derivative) *derivative /= 3.0;
+  return w / 3.0;
+}
+
 void TriangleShell::gradient_parameter_jacobian(const Eigen::VectorXd& q,
                                                 Eigen::MatrixXd* dgradient_dk) const {
   const Impl& m = *impl_;
@@ -457,7 +583,23 @@ void TriangleShell::gradient_parameter_jacobian(const Eigen::VectorXd& q,
   // Columns of the hinge stiffness derivative (hinge_bending.hpp: a11, a12, a22, G12, τ).
   const std::array<int, 5> bending_columns = {FlatLayout::kA11, FlatLayout::kA12, FlatLayout::kA22,
                                               FlatLayout::kG12, FlatLayout::kThickness};
+  const int nh = m.num_hinges();
+  Eigen::Matrix<double, 1, 5> clamp_dk;
+  clamp_hinge_stiffness(&clamp_dk);
   m.for_each_by_slab([&](int id) {
+    if (id >= nf + nh) {
+      // ∂(2 k_b g θ ∇θ)/∂p = 2 (∂k_b/∂p) g θ ∇θ, over the real triangle's vertices.
+      const ClampHinge& c = m.clamp_hinges[static_cast<size_t>(id - nf - nh)];
+      Vector12 dtheta;
+      const double theta = dihedral_angle(vertex(q, c.v[0]), vertex(q, c.v[1]),
+                                          vertex(q, c.v[2]), c.ghost, &dtheta, nullptr);
+      for (size_t p = 0; p < bending_columns.size(); ++p)
+        for (int a = 0; a < 3; ++a)
+          J.block<3, 1>(3 * c.v[a], bending_columns[p]) +=
+              2.0 * clamp_dk[static_cast<Eigen::Index>(p)] * c.weight * theta *
+              dtheta.segment<3>(3 * a);
+      return;
+    }
     if (id < nf) {
       const int v[3] = {t.faces(id, 0), t.faces(id, 1), t.faces(id, 2)};
       const Eigen::Matrix<double, 9, Eigen::Dynamic> local =
@@ -495,7 +637,10 @@ std::vector<int> TriangleShell::clamped_nodes(StripEnd end, bool clamp_slope) co
   for (int v = 0; v < t.num_vertices(); ++v) {
     const int hc = t.half_column[static_cast<size_t>(v)];
     const int from_end = end == StripEnd::Start ? hc : last - hc;
-    if (from_end == 0 || (clamp_slope && from_end <= 2)) out.push_back(v);
+    // With clamp hinges on this end the hinges hold the slope; otherwise the next vertex
+    // column (and the cross pattern's centres between) is held too (triangle_shell.hpp).
+    const bool hinged = includes(options_.clamp_hinges, end);
+    if (from_end == 0 || (clamp_slope && !hinged && from_end <= 2)) out.push_back(v);
   }
   return out;
 }

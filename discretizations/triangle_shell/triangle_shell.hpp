@@ -26,9 +26,18 @@
 // parity share no vertex, so writes never collide and results are bitwise deterministic for
 // any thread count).
 //
-// Clamps (clamped_nodes): the vertices on the end line, and with clamp_slope also the next
-// vertex column (for the cross pattern: every vertex of the end cell column, centres
-// included), which holds the first cell row of triangles and with it the slope.
+// Clamps (clamped_nodes): the vertices on the end line. A linear triangle's slope across the
+// end line is set by its apex one cell in, so holding the slope by vertices alone
+// (clamp_hinges = none: clamp_slope also holds the next vertex column; for the cross pattern
+// every vertex of the end cell column, centres included) makes the first cell column rigid:
+// the effective clamp sits one cell in, an O(h) shortening of a cantilever's overhang. With
+// clamp_hinges on an end, only the end line is held and the slope is held by *clamp hinges*:
+// every boundary edge on that end line is a hinge against a ghost triangle fixed in the rest
+// plane (the platform or jaw), stiffness k_b = W_cyl(x̂)/3 with W_cyl the KL energy per area
+// of a unit cylinder across the end line and Ā_e = Ā_T/3 (its one real triangle), which gives
+// the KL energy of that cylinder in the half cell next to the clamp for any apex position
+// (docs/triangle_shell.md §8). The ghost is fixed in space: clamp hinges assume the held end
+// line only translates in the rest plane (tensile jaws, the cantilever platform).
 #include <Eigen/Core>
 #include <cstdint>
 #include <memory>
@@ -47,6 +56,12 @@ struct StripTriangulation;
 class OptionSchema;
 class Options;
 
+/// A subset of the two strip ends (x = 0 and x = length).
+enum class StripEnds { None, Start, End, Both };
+std::string to_string(StripEnds ends);                        // "none", "start", "end", "both"
+StripEnds strip_ends_from_string(const std::string& text);    // throws InputError for others
+bool includes(StripEnds ends, StripEnd end);
+
 struct TriangleShellOptions {
   /// Mesh pattern (strip_triangulation.hpp). Alternating is the default: with the material
   /// axes along the strip (0°/90°) it reproduces cylinders bent in *every* direction, where
@@ -57,13 +72,19 @@ struct TriangleShellOptions {
   double perturbation = 0.2;
   std::uint64_t seed = 1;  ///< irregular pattern: random seed
   int threads = 0;         ///< worker threads for assembly; 0 = TBB's choice, 1 = serial
+  /// Strip ends whose slope clamp is modelled by clamp hinges (header comment) instead of
+  /// holding the first cell column rigid. Off by default: a clamp hinge holds the end's slope
+  /// whether or not the experiment holds that end (pure bending of free sheets must not have
+  /// them); the cantilever wants `start`.
+  StripEnds clamp_hinges = StripEnds::None;
 
   /// Empty when valid; otherwise names the field and the violated constraint (Ceres style).
   std::string validate() const;
 };
 
 /// The option schema under which "triangle-shell" is registered (registry.hpp): pattern,
-/// perturbation, seed, threads, with the defaults and constraints of TriangleShellOptions.
+/// perturbation, seed, threads, clamp_hinges, with the defaults and constraints of
+/// TriangleShellOptions.
 OptionSchema triangle_shell_option_schema();
 /// TriangleShellOptions from options resolved against triangle_shell_option_schema().
 TriangleShellOptions triangle_shell_options(const Options& resolved);
@@ -111,6 +132,10 @@ class TriangleShell final : public Discretization {
   TriangleShellEnergyParts energy_parts(const Eigen::VectorXd& q) const;
   /// Bending energy of every hinge k_c g_e θ_e² [J], in triangulation().hinges order.
   Eigen::VectorXd hinge_energies(const Eigen::VectorXd& q) const;
+  /// Bending energy of every clamp hinge k_b g_b θ_b² [J] (empty without clamp hinges).
+  Eigen::VectorXd clamp_hinge_energies(const Eigen::VectorXd& q) const;
+  /// Clamp-hinge stiffness k_b = W_cyl(x̂)/3 [J] and ∂k_b/∂(a11, a12, a22, G12, τ).
+  double clamp_hinge_stiffness(Eigen::Matrix<double, 1, 5>* derivative = nullptr) const;
 
   const TriangleShellOptions& options() const { return options_; }
   const StripTriangulation& triangulation() const;

@@ -217,6 +217,49 @@ TEST(TriangleShellPureBending, HingeEnergyMatchesKirchhoffLoveOnCylinders) {
   }
 }
 
+TEST(TriangleShellClampHinges, CarryTheKirchhoffLoveEnergyOfTheHalfCellAtTheClamp) {
+  // A cylinder tangent to the rest plane along x = 0, x = R sin(X/R), z = R(1 − cos(X/R)),
+  // tilts a clamp-hinge triangle with apex at distance a by exactly a/(2R), so the hinge
+  // energy (k_b = W_cyl/3, g_b = 3|ē|²/Ā_T; docs/triangle_shell.md §8) is W_cyl/R² · Ā_T for
+  // every apex position: the clamp hinges together carry the KL energy of their triangles.
+  const double R = 0.04;
+  for (TrianglePattern pattern : all_triangle_patterns())
+    for (double angle : {90.0, 0.0, 30.0}) {
+      TriangleShellOptions o = options(pattern);
+      o.clamp_hinges = StripEnds::Start;
+      const MaterialParameters p = physical_parameters();
+      TriangleShell shell(strip(4, 6, angle), p, o);
+      Eigen::VectorXd q = shell.rest_positions();
+      for (int v = 0; v < shell.num_nodes(); ++v) {
+        const double X = q[3 * v];
+        q[3 * v] = R * std::sin(X / R);
+        q[3 * v + 2] = R * (1 - std::cos(X / R));
+      }
+      double clamp_area = 0;  // the triangles with an edge on x = 0
+      const StripTriangulation& t = shell.triangulation();
+      for (int f = 0; f < t.num_faces(); ++f) {
+        int on_line = 0;
+        for (int k = 0; k < 3; ++k) on_line += t.reference_xy(t.faces(f, k), 0) == 0.0;
+        if (on_line == 2) {
+          const Eigen::Vector2d a = t.reference_xy.row(t.faces(f, 0)), b = t.reference_xy.row(t.faces(f, 1)),
+                                c = t.reference_xy.row(t.faces(f, 2));
+          clamp_area += 0.5 * std::abs((b - a).x() * (c - a).y() - (b - a).y() * (c - a).x());
+        }
+      }
+      const double expected = kirchhoff_love_cylinder_density(p, angle, Eigen::Vector2d::UnitX(), R) * clamp_area;
+      EXPECT_NEAR(shell.clamp_hinge_energies(q).sum(), expected, 1e-12 * expected)
+          << to_string(pattern) << " at " << angle;
+      // The stiffness is the same W_cyl/3 for every pattern and ∝ τ³.
+      Eigen::Matrix<double, 1, 5> dk;
+      const double k = shell.clamp_hinge_stiffness(&dk);
+      EXPECT_NEAR(dk[4] * p.thickness_m, 3 * k, 1e-12 * k);
+      // Rigid translations of the held end line in the rest plane keep the hinges unloaded.
+      Eigen::VectorXd moved = shell.rest_positions();
+      for (int v = 0; v < shell.num_nodes(); ++v) moved.segment<2>(3 * v) += Eigen::Vector2d(1e-3, -2e-3);
+      EXPECT_EQ(shell.clamp_hinge_energies(moved).sum(), 0.0);
+    }
+}
+
 TEST(HingeCalibration, ClosedFormsForSquareCellsWithAlignedMaterial) {
   // docs/triangle_shell.md §4.5: angle 90° (warp along x), square cells. Classes are told
   // apart by their normal m (vertical edges: m = x, so they bend with warp curvature).

@@ -172,6 +172,7 @@ MaterialParameters law_with_cutoffs_around(const StrainSample& s, double thickne
 struct DerivativeCase {
   TrianglePattern pattern;
   double thickness_m;  // 0.45 mm: membrane-dominated; 5 mm: bending of the same order
+  StripEnds clamp_hinges = StripEnds::None;  // both: the clamp hinges' terms are checked too
 };
 
 class TriangleShellDerivatives : public ::testing::TestWithParam<DerivativeCase> {
@@ -179,8 +180,9 @@ class TriangleShellDerivatives : public ::testing::TestWithParam<DerivativeCase>
   void SetUp() override {
     // 30°: the material axes are not aligned with the mesh (general frame, and the hinge
     // calibration takes its least-squares branch for some patterns).
-    shell_ = std::make_unique<TriangleShell>(strip(4, 6, 30.0), physical_parameters(),
-                                             options(GetParam().pattern));
+    TriangleShellOptions o = options(GetParam().pattern);
+    o.clamp_hinges = GetParam().clamp_hinges;
+    shell_ = std::make_unique<TriangleShell>(strip(4, 6, 30.0), physical_parameters(), o);
     q_ = distorted_configuration(*shell_, 5);
     const StrainSample s = triangle_strains(*shell_, q_);
     params_ = law_with_cutoffs_around(s, GetParam().thickness_m, &margin_);
@@ -291,10 +293,13 @@ INSTANTIATE_TEST_SUITE_P(Patterns, TriangleShellDerivatives,
                                            DerivativeCase{TrianglePattern::Cross, 0.45e-3},
                                            DerivativeCase{TrianglePattern::Irregular, 0.45e-3},
                                            DerivativeCase{TrianglePattern::Alternating, 5e-3},
-                                           DerivativeCase{TrianglePattern::Irregular, 5e-3}),
+                                           DerivativeCase{TrianglePattern::Irregular, 5e-3},
+                                           DerivativeCase{TrianglePattern::Alternating, 5e-3, StripEnds::Both},
+                                           DerivativeCase{TrianglePattern::Cross, 0.45e-3, StripEnds::Both}),
                          [](const auto& test_info) {
                            return to_string(test_info.param.pattern) +
-                                  (test_info.param.thickness_m > 1e-3 ? "_thick" : "_thin");
+                                  (test_info.param.thickness_m > 1e-3 ? "_thick" : "_thin") +
+                                  (test_info.param.clamp_hinges == StripEnds::None ? "" : "_clamp_hinges");
                          });
 
 // ---------------------------------------------------------------------------------------

@@ -175,6 +175,31 @@ TEST(TriangleShell, ClampedNodesAreTheEndColumns) {
   }
 }
 
+TEST(TriangleShell, ClampHingesHoldTheSlopeInsteadOfTheNextColumn) {
+  // With clamp hinges on the start only, a slope clamp there holds the end line alone (the
+  // hinges hold the slope); the other end still holds its first cell column.
+  const int nx = 6, ny = 4;
+  for (TrianglePattern pattern : all_triangle_patterns()) {
+    TriangleShellOptions o = options(pattern);
+    o.clamp_hinges = StripEnds::Start;
+    TriangleShell shell(strip(ny, nx), physical_parameters(), o);
+    const bool cross = pattern == TrianglePattern::Cross;
+    EXPECT_EQ(shell.clamped_nodes(StripEnd::Start, true), shell.clamped_nodes(StripEnd::Start, false));
+    EXPECT_EQ(static_cast<int>(shell.clamped_nodes(StripEnd::End, true).size()),
+              2 * (ny + 1) + (cross ? ny : 0));
+    // One clamp hinge per boundary edge of the start line, none elsewhere.
+    EXPECT_EQ(shell.clamp_hinge_energies(shell.rest_positions()).size(), ny) << to_string(pattern);
+  }
+  EXPECT_EQ(strip_ends_from_string("both"), StripEnds::Both);
+  EXPECT_EQ(input_error_key([] { strip_ends_from_string("left"); }), "clamp_hinges");
+  const OptionSchema schema = triangle_shell_option_schema();
+  Options o = default_options(schema, nullptr);
+  EXPECT_EQ(triangle_shell_options(o).clamp_hinges, TriangleShellOptions{}.clamp_hinges);
+  apply_override(o, schema, nullptr, "clamp_hinges=start");
+  EXPECT_EQ(triangle_shell_options(o).clamp_hinges, StripEnds::Start);
+  EXPECT_THROW(apply_override(o, schema, nullptr, "clamp_hinges=middle"), InputError);
+}
+
 TEST(TriangleShell, PointEvaluationInterpolatesAffineFieldsExactly) {
   std::mt19937_64 rng(4);
   for (TrianglePattern pattern : all_triangle_patterns()) {
