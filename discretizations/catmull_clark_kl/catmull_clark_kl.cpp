@@ -17,14 +17,13 @@
 #include <utility>
 
 #include "core/input_error.hpp"
+#include "discretizations/catmull_clark_kl/kirchhoff_love_face.hpp"
 #include "discretizations/catmull_clark_kl/kirchhoff_love_kernel.hpp"
 
 namespace twill {
 namespace {
 
 using BasisTable = Eigen::Matrix<double, 6, 16>;  // rows as PatchBasis::weights
-using FaceCoordinates = Eigen::Matrix<double, 16, 3>;
-using Matrix16 = Eigen::Matrix<double, 16, 16>;
 constexpr int kSlotsPerFace = 16 * 16 * 3;
 
 /// (key, message) of the first invalid option; key empty when all are valid.
@@ -67,8 +66,11 @@ void validate_parameters(const MaterialParameters& p) {
     throw InputError(InputLocation{"", 0, "density_kg_m2"}, "density must be finite");
 }
 
-/// Index of the pair (a, b), a ≤ b, among the 6 upper-triangle component blocks.
-constexpr int pair_index(int a, int b) { return a == 0 ? b : (a == 1 ? 2 + b : 5); }
+/// Per-thread 48 × num_parameters scratch of gradient_parameter_jacobian (allocated once).
+FaceParameterJacobian& parameter_workspace() {
+  thread_local FaceParameterJacobian local;
+  return local;
+}
 
 /// Surface jet y = (a1, a2, x,11, x,22, x,12) from a basis table and face control points.
 SurfaceJet jet_of(const BasisTable& table, const FaceCoordinates& X) {
@@ -85,6 +87,7 @@ struct CatmullClarkKL::Mesh {
   int points_per_face = 0;
   std::vector<Eigen::Vector2d> gauss_uv;        // per point of a face
   std::vector<BasisTable> basis_tables;         // [table · points_per_face + point]
+  std::vector<JetBasis> jet_basis;              // Dᵀ of basis_tables, contiguous, same index
   std::vector<int> face_table;                  // per face
   std::vector<std::array<int, 16>> face_nodes;  // per face
   std::vector<ReferencePoint> reference;        // [face · points_per_face + point]
@@ -101,6 +104,7 @@ struct CatmullClarkKL::Mesh {
   std::size_t bytes() const {
     std::size_t total = gauss_uv.capacity() * sizeof(Eigen::Vector2d) +
                         basis_tables.capacity() * sizeof(BasisTable) +
+                        jet_basis.capacity() * sizeof(JetBasis) +
                         face_table.capacity() * sizeof(int) +
                         face_nodes.capacity() * sizeof(std::array<int, 16>) +
                         reference.capacity() * sizeof(ReferencePoint) +
@@ -251,6 +255,9 @@ CatmullClarkKL::CatmullClarkKL(const StripSpec& strip, const MaterialParameters&
                     origin.head<2>();
   }
 
+  for (const BasisTable& table : mesh->basis_tables)
+    mesh->jet_basis.emplace_back(table.bottomRows<5>().transpose());
+
   // Hessian pattern: nodes i, j are coupled when some face's patch uses both.
   const int num_nodes_total = basis_->num_nodes();
   std::vector<std::vector<int>> neighbours(static_cast<size_t>(num_nodes_total));
@@ -316,6 +323,18 @@ int CatmullClarkKL::num_quadrature_points() const {
 
 std::size_t CatmullClarkKL::precomputation_bytes() const { return mesh_->bytes(); }
 
+FaceQuadrature CatmullClarkKL::face_quadrature(int face) const {
+  const Mesh& mesh = *mesh_;
+  const int npf = mesh.points_per_face;
+  FaceQuadrature quadrature;
+  quadrature.points_per_face = npf;
+  quadrature.jet_basis =
+      mesh.jet_basis.data() + static_cast<std::size_t>(mesh.face_table[static_cast<size_t>(face)] * npf);
+  quadrature.reference = mesh.reference.data() + static_cast<std::size_t>(face * npf);
+  quadrature.fibre_strain = options_.fibre_strain;
+  return quadrature;
+}
+
 void CatmullClarkKL::check_positions(const Eigen::VectorXd& q, const char* caller) const {
   if (q.size() != num_dofs())
     throw std::invalid_argument(std::string("CatmullClarkKL::") + caller + ": q has " +
@@ -352,40 +371,17 @@ double CatmullClarkKL::energy(const Eigen::VectorXd& q, Eigen::VectorXd* gradien
   std::vector<std::pair<double*, std::size_t>> targets;
   if (gradient) targets.emplace_back(gradient->data(), static_cast<std::size_t>(n));
   if (hessian) targets.emplace_back(hessian->valuePtr(), nnz);
-  const int npf = mesh.points_per_face;
   const double tau = law_.parameters().thickness_m;
 
   const FaceBody body = [&](int face, double* const* outputs) {
     const auto& nodes = mesh.face_nodes[static_cast<size_t>(face)];
     FaceCoordinates X;
     for (int k = 0; k < 16; ++k) X.row(k) = q.segment<3>(3 * nodes[static_cast<size_t>(k)]).transpose();
-    FaceCoordinates face_gradient = FaceCoordinates::Zero();
-    std::array<Matrix16, 6> blocks;  // (a, b) component blocks, a ≤ b, of the 48×48 Hessian
-    if (hessian)
-      for (auto& block : blocks) block.setZero();
-    Vector15 gy;
-    Matrix15 Hy;
-    double E = 0.0;
-    for (int p = 0; p < npf; ++p) {
-      const BasisTable& W =
-          mesh.basis_tables[static_cast<size_t>(mesh.face_table[static_cast<size_t>(face)] * npf + p)];
-      const ReferencePoint& ref = mesh.reference[static_cast<size_t>(face * npf + p)];
-      E += kirchhoff_love_point(law_, tau, thickness_rule_, ref, jet_of(W, X),
-                                gradient ? &gy : nullptr, hessian ? &Hy : nullptr);
-      const auto Dy = W.bottomRows<5>();  // ∂y/∂(control point): y = kron(Dy, I3) x
-      if (gradient)
-        face_gradient.noalias() +=
-            Dy.transpose() * Eigen::Map<const Eigen::Matrix<double, 5, 3, Eigen::RowMajor>>(gy.data());
-      if (hessian)
-        for (int a = 0; a < 3; ++a)
-          for (int b = a; b < 3; ++b) {
-            // H_ab(r, s) = Hy(3r + a, 3s + b): the (a, b) component coupling of jet rows r, s.
-            const Eigen::Map<const Eigen::Matrix<double, 5, 5>, 0, Eigen::Stride<45, 3>> Hab(
-                Hy.data() + 15 * b + a);
-            blocks[static_cast<size_t>(pair_index(a, b))].noalias() +=
-                Dy.transpose() * (Hab * Dy);
-          }
-    }
+    FaceCoordinates face_gradient;
+    FaceHessianBlocks blocks;  // (a, b) component blocks, a ≤ b, of the 48×48 Hessian
+    const double E = kirchhoff_love_face(law_, tau, thickness_rule_, face_quadrature(face),
+                                         X, gradient ? &face_gradient : nullptr,
+                                         hessian ? &blocks : nullptr);
     face_energy[static_cast<size_t>(face)] = E;
     int out = 0;
     if (gradient) {
@@ -401,8 +397,8 @@ double CatmullClarkKL::energy(const Eigen::VectorXd& q, Eigen::VectorXd* gradien
           for (int b = 0; b < 3; ++b) {
             double* column = values + slots[(16 * i + j) * 3 + b];
             for (int a = 0; a < 3; ++a)
-              column[a] += a <= b ? blocks[static_cast<size_t>(pair_index(a, b))](i, j)
-                                  : blocks[static_cast<size_t>(pair_index(b, a))](j, i);
+              column[a] += a <= b ? blocks[static_cast<size_t>(face_block_index(a, b))](i, j)
+                                  : blocks[static_cast<size_t>(face_block_index(b, a))](j, i);
           }
     }
   };
@@ -429,7 +425,6 @@ void CatmullClarkKL::gradient_parameter_jacobian(const Eigen::VectorXd& q,
   const int n = num_dofs();
   const int num_k = law_.num_parameters();
   dgradient_dk->setZero(n, num_k);
-  const int npf = mesh.points_per_face;
   const double tau = law_.parameters().thickness_m;
   std::vector<std::pair<double*, std::size_t>> targets = {
       {dgradient_dk->data(), static_cast<std::size_t>(n) * static_cast<std::size_t>(num_k)}};
@@ -438,21 +433,9 @@ void CatmullClarkKL::gradient_parameter_jacobian(const Eigen::VectorXd& q,
     const auto& nodes = mesh.face_nodes[static_cast<size_t>(face)];
     FaceCoordinates X;
     for (int k = 0; k < 16; ++k) X.row(k) = q.segment<3>(3 * nodes[static_cast<size_t>(k)]).transpose();
-    Eigen::MatrixXd local = Eigen::MatrixXd::Zero(48, num_k);  // rows 16 c + k: node k, comp c
-    JetParameterJacobian Jy;
-    for (int p = 0; p < npf; ++p) {
-      const BasisTable& W =
-          mesh.basis_tables[static_cast<size_t>(mesh.face_table[static_cast<size_t>(face)] * npf + p)];
-      const ReferencePoint& ref = mesh.reference[static_cast<size_t>(face * npf + p)];
-      kirchhoff_love_point_parameter_jacobian(law_, tau, thickness_rule_, ref, jet_of(W, X), &Jy);
-      const auto Dy = W.bottomRows<5>();
-      for (int c = 0; c < 3; ++c) {
-        // Rows 3r + c of Jy: component c of jet row r.
-        const Eigen::Map<const Eigen::MatrixXd, 0, Eigen::Stride<Eigen::Dynamic, 3>> Jc(
-            Jy.data() + c, 5, num_k, Eigen::Stride<Eigen::Dynamic, 3>(15, 3));
-        local.middleRows<16>(16 * c).noalias() += Dy.transpose() * Jc;
-      }
-    }
+    FaceParameterJacobian& local = parameter_workspace();  // rows 16 c + k: node k, comp c
+    kirchhoff_love_face_parameter_jacobian(law_, tau, thickness_rule_, face_quadrature(face),
+                                           X, &local);
     double* out = outputs[0];
     for (int col = 0; col < num_k; ++col)
       for (int c = 0; c < 3; ++c)
@@ -559,13 +542,13 @@ std::vector<CatmullClarkKL::PointStrain> CatmullClarkKL::quadrature_strains(
     FaceCoordinates X;
     for (int k = 0; k < 16; ++k) X.row(k) = q.segment<3>(3 * nodes[static_cast<size_t>(k)]).transpose();
     const Eigen::Matrix<double, 2, 3>& affine = mesh.face_affine[static_cast<size_t>(face)];
+    std::array<Vector6, 256> e;  // points_per_face ≤ 16² (validated)
+    kirchhoff_love_face_strains(face_quadrature(face), X, e.data());
     for (int p = 0; p < npf; ++p) {
-      const BasisTable& W =
-          mesh.basis_tables[static_cast<size_t>(mesh.face_table[static_cast<size_t>(face)] * npf + p)];
       PointStrain point;
       point.reference_point = affine.col(0) + affine.rightCols<2>() * mesh.gauss_uv[static_cast<size_t>(p)];
-      orthotropic_strains(mesh.reference[static_cast<size_t>(face * npf + p)], jet_of(W, X),
-                          &point.membrane, &point.bending);
+      point.membrane = e[static_cast<size_t>(p)].head<3>();
+      point.bending = e[static_cast<size_t>(p)].tail<3>();
       strains.push_back(point);
     }
   }

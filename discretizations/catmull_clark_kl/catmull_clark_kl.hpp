@@ -44,6 +44,7 @@
 #include "core/material_law.hpp"
 #include "core/parameters.hpp"
 #include "discretizations/catmull_clark_kl/gauss_legendre.hpp"
+#include "discretizations/catmull_clark_kl/kirchhoff_love_face.hpp"
 #include "discretizations/catmull_clark_kl/limit_surface_basis.hpp"
 
 namespace twill {
@@ -57,6 +58,9 @@ struct CatmullClarkKLOptions {
   int threads = 0;                     ///< worker threads; 0 = TBB's choice
   int surface_samples_per_face = 4;    ///< surface_mesh(): samples per face edge
   Assembly assembly = Assembly::Colouring;
+  /// Fibre stretches Ẽ11, Ẽ22 per Gauss point (paper §6.3) or their face mean (a B-bar
+  /// remedy for fibre-inextensibility locking; docs/catmull_clark_kl.md §12).
+  FibreStrain fibre_strain = FibreStrain::Pointwise;
 
   /// Empty when valid; otherwise names the field and the violated constraint (Ceres style).
   std::string validate() const;
@@ -108,7 +112,8 @@ class CatmullClarkKL final : public Discretization {
     Eigen::Vector3d membrane;
     Eigen::Vector3d bending;
   };
-  /// Every Gauss point's strains at q, face by face.
+  /// Every Gauss point's strains at q, face by face, as the law sees them (with
+  /// FibreStrain::FaceMean, Ẽ11 and Ẽ22 are the face means).
   std::vector<PointStrain> quadrature_strains(const Eigen::VectorXd& q) const;
   /// Bytes held by the mesh precomputation (basis tables, reference data, Hessian pattern and
   /// block positions, colouring), excluding OpenSubdiv's own patch table.
@@ -118,6 +123,8 @@ class CatmullClarkKL final : public Discretization {
   struct Mesh;
 
   void check_positions(const Eigen::VectorXd& q, const char* caller) const;
+  /// The precomputed quadrature of one face (basis, reference data, projection choice).
+  FaceQuadrature face_quadrature(int face) const;
 
   StripSpec strip_;
   CatmullClarkKLOptions options_;

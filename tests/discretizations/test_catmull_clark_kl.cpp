@@ -119,6 +119,13 @@ CatmullClarkKLOptions two_threads() {
   return o;
 }
 
+/// Two threads, and the fibre-strain treatment under test.
+CatmullClarkKLOptions two_threads(FibreStrain fibre_strain) {
+  CatmullClarkKLOptions o = two_threads();
+  o.fibre_strain = fibre_strain;
+  return o;
+}
+
 /// Orthotropic strain (Ẽ11, Ẽ22, |Ẽ12|) at every through-thickness point of every Gauss
 /// point: the arguments at which the law is evaluated.
 std::array<std::vector<double>, 3> law_arguments(const CatmullClarkKL& d, const VectorXd& q) {
@@ -209,7 +216,11 @@ TEST(CatmullClarkKLOptions, ValidateNamesTheOffendingField) {
 }
 
 TEST(CatmullClarkKL, MeshLayoutAndRestState) {
-  const CatmullClarkKL d(small_strip(90), canvas_stvk());
+  for (FibreStrain fibre_strain : {FibreStrain::Pointwise, FibreStrain::FaceMean}) {
+  SCOPED_TRACE(fibre_strain == FibreStrain::Pointwise ? "pointwise" : "face-mean");
+  CatmullClarkKLOptions options;
+  options.fibre_strain = fibre_strain;
+  const CatmullClarkKL d(small_strip(90), canvas_stvk(), options);
   EXPECT_EQ(d.name(), "catmull-clark-kl");
   EXPECT_EQ(d.num_nodes(), 5 * 4);
   EXPECT_EQ(d.num_faces(), 12);
@@ -227,12 +238,14 @@ TEST(CatmullClarkKL, MeshLayoutAndRestState) {
   for (int k = 0; k < 6; ++k) EXPECT_LT(std::abs(lambda[k]), 1e-12 * largest) << k;
   EXPECT_GT(lambda[6], 1e-8 * largest);
   EXPECT_THROW(d.energy(VectorXd::Zero(7), nullptr, nullptr), std::invalid_argument);
+  }
 }
 
 TEST(CatmullClarkKL, PatchTestUniformStretchIsExactAtEveryAngle) {
+  for (FibreStrain fibre_strain : {FibreStrain::Pointwise, FibreStrain::FaceMean})
   for (double angle : {0.0, 22.5, 45.0, 67.5, 90.0}) {
     const MaterialParameters parameters = canvas_nonlinear();
-    const CatmullClarkKL d(small_strip(angle), parameters, two_threads());
+    const CatmullClarkKL d(small_strip(angle), parameters, two_threads(fibre_strain));
     // In-plane affine map: stretch, contraction, shear, then a rigid rotation about z.
     Eigen::Matrix2d F;
     F << 1.03, 0.012, -0.004, 0.985;
@@ -260,7 +273,8 @@ TEST(CatmullClarkKL, PatchTestUniformStretchIsExactAtEveryAngle) {
 }
 
 TEST(CatmullClarkKL, RigidMotionInvariance) {
-  const CatmullClarkKL d(small_strip(30), canvas_nonlinear(), two_threads());
+  for (FibreStrain fibre_strain : {FibreStrain::Pointwise, FibreStrain::FaceMean}) {
+  const CatmullClarkKL d(small_strip(30), canvas_nonlinear(), two_threads(fibre_strain));
   const VectorXd q = distorted_state(d);
   const Eigen::Matrix3d R =
       Eigen::AngleAxisd(0.7, Vector3d(0.3, -0.5, 0.8).normalized()).toRotationMatrix();
@@ -277,12 +291,16 @@ TEST(CatmullClarkKL, RigidMotionInvariance) {
   for (int i = 0; i < d.num_nodes(); ++i)
     worst = std::max(worst, (g_moved.segment<3>(3 * i) - R * g.segment<3>(3 * i)).norm());
   EXPECT_LT(worst, 1e-11 * g.cwiseAbs().maxCoeff());
+  }
 }
 
-class CatmullClarkKLDerivatives : public ::testing::Test {
+// Every derivative check runs for both fibre-strain treatments: the face-mean projection
+// couples all Gauss points of a face (docs/catmull_clark_kl.md §12), so its Hessian and ∂g/∂k
+// have terms the pointwise energy does not.
+class CatmullClarkKLDerivatives : public ::testing::TestWithParam<FibreStrain> {
  protected:
   CatmullClarkKLDerivatives()
-      : d_(small_strip(30), canvas_nonlinear(), two_threads()), q_(distorted_state(d_)) {
+      : d_(small_strip(30), canvas_nonlinear(), two_threads(GetParam())), q_(distorted_state(d_)) {
     design_ = cutoffs_in_gaps(law_arguments(d_, q_));
     MaterialParameters p = d_.parameters();
     p.cutoffs = design_.cutoffs;
@@ -297,7 +315,7 @@ class CatmullClarkKLDerivatives : public ::testing::Test {
   CutoffDesign design_;
 };
 
-TEST_F(CatmullClarkKLDerivatives, StateLeavesTheCutoffBoxAwayFromItsFaces) {
+TEST_P(CatmullClarkKLDerivatives, StateLeavesTheCutoffBoxAwayFromItsFaces) {
   const Cutoffs& box = d_.parameters().cutoffs;
   int outside = 0, inside = 0;
   for (const auto& point : d_.quadrature_strains(q_)) {
@@ -325,7 +343,7 @@ TEST_F(CatmullClarkKLDerivatives, StateLeavesTheCutoffBoxAwayFromItsFaces) {
   EXPECT_LT(*box.E11_min, 0.0);  // compression outside the data, as with the paper's E_min = 0
 }
 
-TEST_F(CatmullClarkKLDerivatives, GradientMatchesFiniteDifferencesAtSecondOrder) {
+TEST_P(CatmullClarkKLDerivatives, GradientMatchesFiniteDifferencesAtSecondOrder) {
   VectorXd g;
   d_.energy(q_, &g, nullptr);
   for (unsigned seed : {11u, 12u}) {
@@ -340,7 +358,7 @@ TEST_F(CatmullClarkKLDerivatives, GradientMatchesFiniteDifferencesAtSecondOrder)
   }
 }
 
-TEST_F(CatmullClarkKLDerivatives, HessianMatchesFiniteDifferencesOfTheGradient) {
+TEST_P(CatmullClarkKLDerivatives, HessianMatchesFiniteDifferencesOfTheGradient) {
   SparseMatrix H;
   d_.energy(q_, nullptr, &H);
   const Eigen::MatrixXd dense = H;
@@ -377,7 +395,7 @@ TEST_F(CatmullClarkKLDerivatives, HessianMatchesFiniteDifferencesOfTheGradient) 
   EXPECT_LT(worst, 1e-6 * dense.cwiseAbs().maxCoeff());
 }
 
-TEST_F(CatmullClarkKLDerivatives, ParameterJacobianMatchesFiniteDifferencesForEveryParameter) {
+TEST_P(CatmullClarkKLDerivatives, ParameterJacobianMatchesFiniteDifferencesForEveryParameter) {
   d_.set_gravity(Vector3d(0.4, -0.3, -9.81));  // so that density enters the gradient
   Eigen::MatrixXd dk;
   d_.gradient_parameter_jacobian(q_, &dk);
@@ -411,7 +429,7 @@ TEST_F(CatmullClarkKLDerivatives, ParameterJacobianMatchesFiniteDifferencesForEv
         MaterialParameters thick = p0;
         thick.thickness_m += sign * h0;
         const auto before = law_arguments(d_, q_);
-        const auto after = law_arguments(CatmullClarkKL(d_.strip(), thick), q_);
+        const auto after = law_arguments(CatmullClarkKL(d_.strip(), thick, d_.options()), q_);
         for (int c = 0; c < 3; ++c)
           for (size_t k = 0; k < before[static_cast<size_t>(c)].size(); ++k)
             ASSERT_LT(std::abs(after[static_cast<size_t>(c)][k] - before[static_cast<size_t>(c)][k]),
@@ -427,7 +445,7 @@ TEST_F(CatmullClarkKLDerivatives, ParameterJacobianMatchesFiniteDifferencesForEv
   d_.set_parameters(p0);
 }
 
-TEST_F(CatmullClarkKLDerivatives, HessianPatternIsReusedAndAssemblyStrategiesAgree) {
+TEST_P(CatmullClarkKLDerivatives, HessianPatternIsReusedAndAssemblyStrategiesAgree) {
   VectorXd g1;
   SparseMatrix H1;
   const double e1 = d_.energy(q_, &g1, &H1);
@@ -439,7 +457,7 @@ TEST_F(CatmullClarkKLDerivatives, HessianPatternIsReusedAndAssemblyStrategiesAgr
 
   for (auto assembly : {CatmullClarkKLOptions::Assembly::Colouring, CatmullClarkKLOptions::Assembly::ThreadLocal})
     for (int threads : {1, 2}) {
-      CatmullClarkKLOptions o;
+      CatmullClarkKLOptions o = d_.options();
       o.assembly = assembly;
       o.threads = threads;
       const CatmullClarkKL other(d_.strip(), d_.parameters(), o);
@@ -462,6 +480,12 @@ TEST_F(CatmullClarkKLDerivatives, HessianPatternIsReusedAndAssemblyStrategiesAgr
       EXPECT_LT((dk2 - dk1).cwiseAbs().maxCoeff(), 1e-13 * dk1.cwiseAbs().maxCoeff());
     }
 }
+
+INSTANTIATE_TEST_SUITE_P(FibreStrain, CatmullClarkKLDerivatives,
+                         ::testing::Values(FibreStrain::Pointwise, FibreStrain::FaceMean),
+                         [](const auto& param) {
+                           return param.param == FibreStrain::Pointwise ? "Pointwise" : "FaceMean";
+                         });
 
 TEST(CatmullClarkKL, ThroughThicknessQuadratureIsExactForStVKAndConvergesOtherwise) {
   // StVK: Ψ does not depend on n_ξ ≥ 2 (the ξ-integrand is a quadratic polynomial).

@@ -1,0 +1,69 @@
+#pragma once
+// One face of the Catmull–Clark Kirchhoff–Love shell: its Gauss points summed, with the exact
+// local gradient, Hessian and parameter Jacobian in the face's 16 control points
+// (docs/catmull_clark_kl.md §4 and §12). Written once, used by every assembly of
+// catmull_clark_kl.cpp; the per-point maths is kirchhoff_love_kernel.hpp.
+//
+// Local dof layout: component-major, index 16 c + k for component c ∈ {x, y, z} of the face's
+// control point k; the jet of a point is y = (D ⊗ I₃) x with D the 5 × 16 derivative rows of the
+// basis (rows 1–5 of PatchBasis::weights).
+//
+// Fibre-strain projection (FibreStrain::FaceMean, an option; the default is decided and argued
+// in docs/catmull_clark_kl.md §12): the fibre stretches Ẽ11, Ẽ22 of the mid-surface are replaced
+// at every Gauss point of the face by their area-weighted face mean (the L² projection onto
+// constants per face, a B-bar method in the sense of Hughes 1980 / Elguedj et al. 2008), while
+// the shear Ẽ12 and the bending strain keep their pointwise values. The energy stays a function
+// of the control points, so its gradient, Hessian and ∂g/∂k are exact derivatives of it.
+#include <Eigen/Core>
+#include <array>
+
+#include "core/material_law.hpp"
+#include "discretizations/catmull_clark_kl/gauss_legendre.hpp"
+#include "discretizations/catmull_clark_kl/kirchhoff_love_kernel.hpp"
+
+namespace twill {
+
+/// How the membrane fibre stretches enter the energy at the Gauss points of a face.
+enum class FibreStrain {
+  Pointwise,  ///< every Gauss point its own strain (paper §6.3)
+  FaceMean,   ///< Ẽ11, Ẽ22 replaced by their face mean (B-bar; see the header comment)
+};
+
+using FaceCoordinates = Eigen::Matrix<double, 16, 3>;  ///< row k: control point k [m]
+using JetBasis = Eigen::Matrix<double, 16, 5>;         ///< Dᵀ: column r = jet row r's weights
+using Matrix16 = Eigen::Matrix<double, 16, 16>;
+/// Upper component blocks (a, b), a ≤ b, of the 48 × 48 local Hessian, in the order
+/// (0,0), (0,1), (0,2), (1,1), (1,2), (2,2) (face_block_index).
+using FaceHessianBlocks = std::array<Matrix16, 6>;
+/// ∂(local gradient)/∂k: row 16 c + k, one column per model parameter.
+using FaceParameterJacobian = Eigen::Matrix<double, 48, Eigen::Dynamic>;
+
+constexpr int face_block_index(int a, int b) { return a == 0 ? b : (a == 1 ? 2 + b : 5); }
+
+/// What a face needs besides its control points; the pointers address points_per_face entries.
+struct FaceQuadrature {
+  int points_per_face = 0;
+  const JetBasis* jet_basis = nullptr;          ///< per point, Dᵀ (16 × 5)
+  const ReferencePoint* reference = nullptr;    ///< per point
+  FibreStrain fibre_strain = FibreStrain::Pointwise;
+};
+
+/// Elastic energy of one face [J] at control points X; optional local gradient (16 × 3, row k =
+/// node k) [N] and upper Hessian blocks [N/m] (each set, not added). points_per_face ≤ 256.
+double kirchhoff_love_face(const MaterialLaw& law, double thickness_m,
+                           const GaussLegendreRule& rule, const FaceQuadrature& face,
+                           const FaceCoordinates& X, FaceCoordinates* gradient,
+                           FaceHessianBlocks* hessian);
+
+/// The orthotropic strains (e_m, e_b) every Gauss point of the face hands to the law, i.e. with
+/// the FaceMean projection applied; `strains` addresses points_per_face entries.
+void kirchhoff_love_face_strains(const FaceQuadrature& face, const FaceCoordinates& X,
+                                 Vector6* strains);
+
+/// ∂(local gradient)/∂k of one face (48 × num_parameters, rows 16 c + k). Resized.
+void kirchhoff_love_face_parameter_jacobian(const MaterialLaw& law, double thickness_m,
+                                            const GaussLegendreRule& rule,
+                                            const FaceQuadrature& face, const FaceCoordinates& X,
+                                            FaceParameterJacobian* dgradient_dk);
+
+}  // namespace twill
