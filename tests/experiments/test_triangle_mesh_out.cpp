@@ -1,0 +1,130 @@
+// `twill simulate --mesh-out FILE.obj` (issue #4): the OBJ written for an equilibrium of either
+// discretisation has the surface_mesh() vertex and face counts and the equilibrium's positions.
+// The check is the path the command takes (TensileExperiment observer → surface_mesh →
+// write_obj) on a 2-point tensile curve, read back from the file.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "core/obj_writer.hpp"
+#include "core/params_io.hpp"
+#include "discretizations/catmull_clark_kl/catmull_clark_kl.hpp"
+#include "discretizations/triangle_shell/triangle_shell.hpp"
+#include "experiments/tensile_test.hpp"
+
+namespace twill {
+namespace {
+
+struct Obj {
+  Eigen::MatrixXd V;
+  Eigen::MatrixXi F;
+};
+
+Obj read_obj(const std::string& path) {
+  std::ifstream in(path);
+  std::vector<Eigen::Vector3d> v;
+  std::vector<Eigen::Vector3i> f;
+  std::string line;
+  while (std::getline(in, line)) {
+    std::istringstream ls(line);
+    std::string tag;
+    ls >> tag;
+    if (tag == "v") {
+      Eigen::Vector3d p;
+      ls >> p.x() >> p.y() >> p.z();
+      v.push_back(p);
+    } else if (tag == "f") {
+      Eigen::Vector3i t;
+      ls >> t.x() >> t.y() >> t.z();
+      f.push_back(t - Eigen::Vector3i::Ones());  // OBJ is one-based
+    }
+  }
+  Obj o;
+  o.V.resize(static_cast<Eigen::Index>(v.size()), 3);
+  o.F.resize(static_cast<Eigen::Index>(f.size()), 3);
+  for (size_t i = 0; i < v.size(); ++i) o.V.row(static_cast<Eigen::Index>(i)) = v[i].transpose();
+  for (size_t i = 0; i < f.size(); ++i) o.F.row(static_cast<Eigen::Index>(i)) = f[i].transpose();
+  return o;
+}
+
+class MeshOut : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(MeshOut, ObjHoldsTheEquilibrium) {
+  const MaterialParameters p =
+      read_params_file(std::string(TWILL_SHARED_DIR) + "/data/reference/canvas/params.yaml");
+  const bool triangles = GetParam() == "triangle-shell";
+  TensileSetup setup;
+  setup.angle_deg = 45;  // bias: a non-uniform equilibrium (the strip narrows at mid-gauge)
+  setup.cells_across = 4;
+  setup.cells_along = 6;
+  TensileExperiment experiment(
+      setup,
+      [triangles](const StripSpec& s, const MaterialParameters& m) -> std::unique_ptr<Discretization> {
+        if (triangles) return std::make_unique<TriangleShell>(s, m);
+        return std::make_unique<CatmullClarkKL>(s, m);
+      },
+      p);
+  Eigen::VectorXd q;
+  const TensileCurve curve =
+      experiment.run({1.0, 3.0}, [&](int, const Eigen::VectorXd& x, const EquilibriumSolver&) { q = x; });
+  ASSERT_TRUE(curve.completed) << curve.message;
+  const Discretization& d = experiment.discretization();
+
+  const std::filesystem::path path = std::filesystem::temp_directory_path() /
+                                     ("twill_mesh_out_" + GetParam() + std::to_string(::getpid()) + ".obj");
+  Eigen::MatrixXd V;
+  Eigen::MatrixXi F;
+  d.surface_mesh(q, &V, &F);
+  write_obj(path.string(), V, F);
+  const Obj obj = read_obj(path.string());
+  std::filesystem::remove(path);
+
+  // Counts: triangles write the mesh itself; Catmull–Clark samples the limit surface on a
+  // (s·cells_along + 1) × (s·cells_across + 1) grid, s = 4 samples per face edge, 2 triangles
+  // per grid cell.
+  const int s = 4;
+  const int nv = triangles ? d.num_nodes() : (s * setup.cells_along + 1) * (s * setup.cells_across + 1);
+  const int nf = triangles ? 2 * setup.cells_along * setup.cells_across : 2 * s * s * setup.cells_along * setup.cells_across;
+  ASSERT_EQ(obj.V.rows(), nv);
+  ASSERT_EQ(obj.F.rows(), nf);
+  EXPECT_EQ((obj.F - F).cwiseAbs().maxCoeff(), 0);
+  EXPECT_EQ((obj.V - V).cwiseAbs().maxCoeff(), 0.0);  // "%.17g" round-trips every double
+
+  // Coordinates are the equilibrium's: every OBJ vertex is the surface point of its reference
+  // position (point_evaluation, independent of surface_mesh's sampling), the moving clamp line
+  // sits at x = L + 3 mm, and the strip is narrowed at mid-gauge by the reported lateral strain.
+  const double L = 1e-3 * setup.gauge_length_mm, W = 1e-3 * setup.width_mm, u = 3e-3;
+  std::vector<Eigen::Vector2d> reference;
+  Eigen::MatrixXd rest_V;
+  d.surface_mesh(d.rest_positions(), &rest_V, nullptr);
+  for (Eigen::Index i = 0; i < rest_V.rows(); ++i) reference.emplace_back(rest_V(i, 0), rest_V(i, 1));
+  const Eigen::VectorXd expected = d.point_evaluation(reference) * q;
+  double worst = 0;
+  for (Eigen::Index i = 0; i < obj.V.rows(); ++i) {
+    worst = std::max(worst, (obj.V.row(i).transpose() - expected.segment<3>(3 * i)).norm());
+    if (std::abs(rest_V(i, 0) - L) < 1e-12) {
+      EXPECT_NEAR(obj.V(i, 0), L + u, 1e-12);
+    }
+    if (std::abs(rest_V(i, 0)) < 1e-12) {
+      EXPECT_NEAR(obj.V(i, 0), 0.0, 1e-12);
+    }
+  }
+  EXPECT_LT(worst, 1e-12 * L);
+  const Eigen::VectorXd mid = d.point_evaluation({{0.5 * L, -0.5 * W}, {0.5 * L, 0.5 * W}}) * q;
+  EXPECT_NEAR((mid.segment<3>(3) - mid.segment<3>(0)).norm() / W - 1.0, curve.points.back().lateral_strain, 1e-12);
+  EXPECT_LT(curve.points.back().lateral_strain, -0.05);  // bias at 4 % strain narrows visibly
+}
+
+INSTANTIATE_TEST_SUITE_P(BothDiscretizations, MeshOut, ::testing::Values("triangle-shell", "catmull-clark-kl"),
+                         [](const auto& test_info) {
+                           return test_info.param == "triangle-shell" ? std::string("triangle_shell")
+                                                                      : std::string("catmull_clark_kl");
+                         });
+
+}  // namespace
+}  // namespace twill
