@@ -1,0 +1,333 @@
+#include "experiments/uniform_strain.hpp"
+
+#include <Eigen/Cholesky>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <stdexcept>
+
+namespace twill {
+
+bool UniformStrainStrip::validate(std::string* error) const {
+  // The same constraints as the tensile setup's geometry (its default cells are valid).
+  TensileSetup setup;
+  setup.angle_deg = angle_deg;
+  setup.width_mm = width_mm;
+  setup.gauge_length_mm = gauge_length_mm;
+  return setup.validate(error);
+}
+
+UniformStrainStrip UniformStrainStrip::from(const TensileSetup& setup, UniformStrainShear shear) {
+  UniformStrainStrip s;
+  s.angle_deg = setup.angle_deg;
+  s.width_mm = setup.width_mm;
+  s.gauge_length_mm = setup.gauge_length_mm;
+  s.shear = shear;
+  return s;
+}
+
+Matrix3 strip_to_material_strain(double angle_deg) {
+  const double theta = angle_deg * std::numbers::pi / 180.0;
+  const double c = std::cos(theta), s = std::sin(theta);
+  // Ẽ11 = d1·E·d1, Ẽ22 = d2·E·d2, Ẽ12 = d1·E·d2 with d1 = (−s, c), d2 = (c, s) and the
+  // symmetric E = [[E_xx, E_xy], [E_xy, E_yy]]; columns are (E_xx, E_yy, E_xy).
+  Matrix3 t;
+  t << s * s, c * c, -2.0 * s * c,  //
+      c * c, s * s, 2.0 * s * c,    //
+      -s * c, s * c, c * c - s * s;
+  return t;
+}
+
+namespace {
+
+constexpr double kEps = std::numeric_limits<double>::epsilon();
+
+/// ψ's strip-frame gradient g = Tᵀ ∂ψ/∂e and Hessian H = Tᵀ ∂²ψ/∂e² T at E.
+struct StripFrameLaw {
+  const MaterialLaw& law;
+  Matrix3 t;
+  int evaluations = 0;
+
+  double operator()(const Vector3& strain, Vector3* g, Matrix3* h) {
+    ++evaluations;
+    Vector3 ge;
+    Matrix3 he;
+    const double psi = law.energy_density(t * strain, &ge, &he);
+    *g = t.transpose() * ge;
+    *h = t.transpose() * he * t;
+    return psi;
+  }
+};
+
+struct ScalarRoot {
+  double x = 0;
+  bool converged = false;
+  std::string message;
+};
+
+/// One evaluation of a lateral residual: value f, derivative f' and the round-off scale of f
+/// (the sum of the magnitudes of the terms f is computed from: f is only known to a few ε of
+/// it, so |f| ≤ 4ε·noise_scale is zero to machine precision).
+struct Residual {
+  double value = 0, derivative = 0, noise_scale = 0;
+};
+
+/// Root of f, increasing through it, on (lower_limit, ∞): Newton's method safeguarded by a
+/// bisection bracket (Numerical Recipes §9.4 "rtsafe"). `f(x)` returns a Residual; a
+/// non-finite value aborts. A bracket is found first by stepping from x0 along the Newton
+/// direction (1.5× the Newton step, doubling), approaching lower_limit by halving the gap.
+/// Stops at machine precision: |f| ≤ 4ε·noise_scale, a step below 2ε|x|, or a bracket of
+/// width 2ε|x|.
+template <class Function>
+ScalarRoot safeguarded_newton(Function&& f, double x0, double lower_limit) {
+  ScalarRoot r;
+  auto fail = [&r](const std::string& message) {
+    r.message = message;
+    return r;
+  };
+  auto at_root = [](const Residual& v) { return std::abs(v.value) <= 4.0 * kEps * v.noise_scale; };
+  const Residual v0 = f(x0);
+  r.x = x0;
+  if (!std::isfinite(v0.value)) return fail("non-finite residual at the start");
+  if (at_root(v0)) {
+    r.converged = true;
+    return r;
+  }
+  // Bracket [lo, hi] with f(lo) < 0 < f(hi). The first trial is 1.5× the Newton step (at
+  // least a few ulps of x0, so that it moves x), then the step doubles.
+  const bool newton_ok = v0.derivative > 0 && std::isfinite(v0.derivative);
+  double step = newton_ok ? -1.5 * v0.value / v0.derivative
+                          : std::copysign(std::max(std::abs(x0), 1e-3), -v0.value);
+  step = std::copysign(std::max(std::abs(step), 8.0 * kEps * std::abs(x0)), step);
+  double a = x0, b = x0;
+  Residual va = v0, vb = v0;
+  bool bracketed = false;
+  for (int i = 0; i < 200 && !bracketed; ++i) {
+    b = a + step;
+    if (b <= lower_limit) b = lower_limit + 0.5 * (a - lower_limit);
+    vb = f(b);
+    if (!std::isfinite(vb.value)) return fail("non-finite residual while bracketing");
+    if (at_root(vb)) {
+      r.x = b;
+      r.converged = true;
+      return r;
+    }
+    if ((vb.value > 0) != (va.value > 0)) {
+      bracketed = true;
+    } else {
+      a = b, va = vb;
+      step *= 2.0;
+    }
+  }
+  if (!bracketed) return fail("no sign change of the lateral traction found");
+  double lo = va.value < 0 ? a : b, hi = va.value < 0 ? b : a;
+  const bool start_at_a = std::abs(va.value) < std::abs(vb.value);
+  double x = start_at_a ? a : b;
+  Residual vx = start_at_a ? va : vb;
+  // Newton is taken when it stays inside the bracket and its step is at most half the step
+  // before last (else bisection): the bracket then shrinks at least linearly.
+  double step_before_last = hi - lo, last_step = hi - lo;
+  for (int i = 0; i < 200; ++i) {
+    const double newton = vx.derivative > 0 ? x - vx.value / vx.derivative
+                                            : std::numeric_limits<double>::quiet_NaN();
+    const bool use_newton = std::isfinite(newton) && newton > lo && newton < hi &&
+                            std::abs(newton - x) <= 0.5 * std::abs(step_before_last);
+    const double next = use_newton ? newton : lo + 0.5 * (hi - lo);
+    step_before_last = last_step;
+    last_step = next - x;
+    if (next == x) {
+      r.x = x;
+      r.converged = true;
+      return r;
+    }
+    x = next;
+    vx = f(x);
+    if (!std::isfinite(vx.value)) return fail("non-finite residual in the safeguarded Newton solve");
+    if (at_root(vx) || std::abs(last_step) <= 2.0 * kEps * std::abs(x) ||
+        hi - lo <= 2.0 * kEps * std::max(std::abs(lo), std::abs(hi))) {
+      r.x = x;
+      r.converged = true;
+      return r;
+    }
+    (vx.value < 0 ? lo : hi) = x;
+  }
+  r.x = x;
+  return fail("lateral solve did not reach machine precision in 200 iterations");
+}
+
+}  // namespace
+
+UniformStrainPoint uniform_strain_tension(const MaterialLaw& law, const UniformStrainStrip& strip,
+                                          double extension_mm, bool want_parameter_derivatives,
+                                          const Eigen::Vector2d& lateral_guess) {
+  std::string error;
+  if (!strip.validate(&error)) throw std::invalid_argument("uniform-strain strip: " + error);
+  if (!(extension_mm > -strip.gauge_length_mm))
+    throw std::invalid_argument("uniform-strain strip: extension " + std::to_string(extension_mm) +
+                                " mm must exceed −gauge_length_mm");
+  UniformStrainPoint p;
+  p.extension_mm = extension_mm;
+  p.stretch = 1.0 + extension_mm / strip.gauge_length_mm;
+  const double exx = 0.5 * (p.stretch * p.stretch - 1.0);
+  const bool free_shear = strip.shear == UniformStrainShear::Free;
+
+  StripFrameLaw psi{law, strip_to_material_strain(strip.angle_deg)};
+  Vector3 g;
+  Matrix3 h;
+  // Round-off scale of g_l = Σ_i T_il ∂ψ/∂e_i: the sum of the magnitudes of its terms, where
+  // ∂ψ/∂e1 = F1' + a12 e2 and ∂ψ/∂e2 = F3' + a12 e1 (material_law.hpp) count as two terms each.
+  const double a12 = law.parameters().a12_Pa;
+  auto noise_scale = [&](const Vector3& strain, int l) {
+    const Vector3 e = psi.t * strain;
+    Vector3 ge;
+    law.energy_density(e, &ge);
+    const Vector3 terms(std::abs(ge[0] - a12 * e[1]) + std::abs(a12 * e[1]),
+                        std::abs(ge[1] - a12 * e[0]) + std::abs(a12 * e[0]), std::abs(ge[2]));
+    return psi.t.col(l).cwiseAbs().dot(terms);
+  };
+  // Inner solve: ∂ψ/∂E_yy = 0 at fixed (E_xx, E_xy). E_yy > −½ keeps the lateral stretch
+  // √(1 + 2E_yy) real.
+  double eyy = lateral_guess[0];
+  bool inner_ok = true;
+  auto solve_eyy = [&](double exy) {
+    const ScalarRoot r = safeguarded_newton(
+        [&](double y) {
+          const Vector3 strain(exx, y, exy);
+          psi(strain, &g, &h);
+          return Residual{g[1], h(1, 1), noise_scale(strain, 1)};
+        },
+        eyy, -0.5);
+    if (!r.converged) {
+      inner_ok = false;
+      p.message = "E_yy: " + r.message;
+      return std::numeric_limits<double>::quiet_NaN();
+    }
+    eyy = r.x;
+    return eyy;
+  };
+
+  double exy = 0;
+  if (free_shear) {
+    // Outer solve: ∂ψ/∂E_xy = 0 along the inner solution E_yy*(E_xy). Its derivative is the
+    // Schur complement H_ss − H_sy²/H_yy (dE_yy*/dE_xy = −H_ys/H_yy). Its round-off includes
+    // the inner solution's: δE_yy ≈ 4ε·scale_y/H_yy moves it by H_sy δE_yy.
+    const ScalarRoot r = safeguarded_newton(
+        [&](double s) {
+          if (std::isnan(solve_eyy(s)))
+            return Residual{std::numeric_limits<double>::quiet_NaN(), 0, 0};
+          const Vector3 strain(exx, eyy, s);
+          psi(strain, &g, &h);
+          return Residual{g[2], h(2, 2) - h(1, 2) * h(1, 2) / h(1, 1),
+                          noise_scale(strain, 2) +
+                              std::abs(h(1, 2) / h(1, 1)) * noise_scale(strain, 1)};
+        },
+        lateral_guess[1], -std::numeric_limits<double>::infinity());
+    if (!r.converged) {
+      if (inner_ok) p.message = "E_xy: " + r.message;
+      p.lateral_iterations = psi.evaluations;
+      return p;
+    }
+    exy = r.x;
+  }
+  // The converged E_yy belongs to the last inner solve, which ran at the final E_xy only if the
+  // outer solve's last evaluation was there: solve once more at the final E_xy (one evaluation
+  // when it already is).
+  if (std::isnan(solve_eyy(exy))) {
+    p.lateral_iterations = psi.evaluations;
+    return p;
+  }
+  p.lateral_iterations = psi.evaluations;
+  p.strain = Vector3(exx, eyy, exy);
+
+  const MaterialParameters& k = law.parameters();
+  const double psi_value = psi(p.strain, &g, &h);
+  const double width_m = 1e-3 * strip.width_mm, length_m = 1e-3 * strip.gauge_length_mm;
+  const double tau = k.thickness_m;
+  p.stress_xx_Pa = g[0];
+  // Clamp force from the first Piola–Kirchhoff stress P = F S on the clamp face (reference
+  // normal x̂, area W τ): F_def = [[λ, a], [0, μ]] keeps the axis along x, so
+  // (P x̂)_x = λ S_xx + a S_xy = λ S_xx (S_xy = 0 when shear is free; a = 0 when held).
+  p.force_N = width_m * tau * p.stretch * p.stress_xx_Pa;
+  p.lateral_strain = std::sqrt(1.0 + 2.0 * eyy) - 1.0;
+  p.energy_J = width_m * length_m * tau * psi_value;
+
+  // Free block l = {E_yy} or {E_yy, E_xy}; reduced axial stiffness K = H_xx − H_xl H_ll⁻¹ H_lx.
+  const int nl = free_shear ? 2 : 1;
+  const Eigen::MatrixXd hll = h.block(1, 1, nl, nl);
+  const Eigen::RowVectorXd hxl = h.block(0, 1, 1, nl);
+  const Eigen::LDLT<Eigen::MatrixXd> lateral(hll);
+  if (lateral.info() != Eigen::Success || !(lateral.vectorD().minCoeff() > 0)) {
+    p.message = "lateral stiffness ∂²ψ/∂E_lat² is not positive definite (unstable state)";
+    return p;
+  }
+  const double reduced = h(0, 0) - (hxl * lateral.solve(hxl.transpose()))(0, 0);
+  p.dforce_dextension_N_per_mm =
+      width_m * tau * (p.stress_xx_Pa + p.stretch * p.stretch * reduced) / strip.gauge_length_mm;
+  p.converged = true;
+
+  if (!want_parameter_derivatives) return p;
+  // Implicit differentiation of ∂ψ/∂E_l = 0: dE_l/dk = −H_ll⁻¹ ∂²ψ/∂E_l∂k, then
+  // dS_xx/dk = ∂²ψ/∂E_xx∂k + H_xl dE_l/dk, and F = W τ λ S_xx gives
+  // dF/dk = W τ λ dS_xx/dk (+ W λ S_xx in the thickness column).
+  StrainParameterMatrix mixed_e;
+  law.parameter_derivatives(psi.t * p.strain, nullptr, &mixed_e);
+  const Eigen::MatrixXd mixed = psi.t.transpose() * mixed_e;  // 3 × n, strip frame
+  const Eigen::MatrixXd dlateral = -lateral.solve(mixed.middleRows(1, nl));
+  const Eigen::RowVectorXd dstress = mixed.row(0) + hxl * dlateral;
+  p.dforce_dk = width_m * tau * p.stretch * dstress.transpose();
+  p.dforce_dk[FlatLayout::kThickness] += width_m * p.stretch * p.stress_xx_Pa;
+  p.dlateral_strain_dk = dlateral.row(0).transpose() / (1.0 + p.lateral_strain);
+  return p;
+}
+
+UniformStrainPredictor::UniformStrainPredictor(std::string label, const TensileSetup& setup,
+                                               std::vector<double> extensions_mm,
+                                               const Eigen::VectorXd& forces_N,
+                                               UniformStrainShear shear)
+    : label_(std::move(label)),
+      strip_(UniformStrainStrip::from(setup, shear)),
+      extensions_mm_(std::move(extensions_mm)),
+      measured_(forces_N) {
+  std::string error;
+  if (!strip_.validate(&error)) throw std::invalid_argument(label_ + ": " + error);
+  if (static_cast<Eigen::Index>(extensions_mm_.size()) != measured_.size())
+    throw std::invalid_argument(label_ + ": " + std::to_string(extensions_mm_.size()) +
+                                " extensions but " + std::to_string(measured_.size()) + " forces");
+  if (extensions_mm_.empty()) throw std::invalid_argument(label_ + ": no measured points");
+  for (double u : extensions_mm_)
+    if (!(u > -strip_.gauge_length_mm))
+      throw std::invalid_argument(label_ + ": extension " + std::to_string(u) +
+                                  " mm must exceed −gauge_length_mm");
+}
+
+bool UniformStrainPredictor::predict(const MaterialParameters& k, const std::vector<int>& flat,
+                                     Eigen::VectorXd* values, Eigen::MatrixXd* jacobian,
+                                     std::string* message) {
+  const MaterialLaw law(k);
+  std::vector<UniformStrainPoint> points;
+  points.reserve(extensions_mm_.size());
+  Eigen::Vector2d guess = Eigen::Vector2d::Zero();
+  for (double u : extensions_mm_) {
+    UniformStrainPoint p = uniform_strain_tension(law, strip_, u, jacobian != nullptr, guess);
+    ++solves_;
+    if (!p.converged) {
+      if (message) *message = label_ + ": uniform strain at " + std::to_string(u) + " mm: " + p.message;
+      return false;
+    }
+    guess = p.strain.tail<2>();
+    points.push_back(std::move(p));
+  }
+  values->resize(measured_.size());
+  if (jacobian) jacobian->resize(measured_.size(), static_cast<Eigen::Index>(flat.size()));
+  for (size_t i = 0; i < points.size(); ++i) {
+    const auto row = static_cast<Eigen::Index>(i);
+    (*values)[row] = points[i].force_N;
+    if (jacobian)
+      for (size_t j = 0; j < flat.size(); ++j)
+        (*jacobian)(row, static_cast<Eigen::Index>(j)) = points[i].dforce_dk[flat[j]];
+  }
+  last_points_ = std::move(points);
+  return true;
+}
+
+}  // namespace twill
