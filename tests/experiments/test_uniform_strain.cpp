@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "core/dataset.hpp"
 #include "core/fit_objective.hpp"
 #include "core/params_io.hpp"
 #include "discretizations/catmull_clark_kl/catmull_clark_kl.hpp"
@@ -425,6 +426,47 @@ TEST(UniformStrainVsShell, CanvasWarpWeftBiasOnTheCoarseGrid) {
       }
       std::printf("\n");
     }
+  }
+}
+
+TEST(UniformStrainVsShell, CanvasAgainstTheConvergedReferenceCurves) {
+  // The same comparison against ../shared/data/reference/canvas (independent planar membrane
+  // solutions, converged to ~0.1 % for warp/weft): separates the clamp effect from the coarse
+  // mesh's. Every point of each curve; warp/weft bounded as above. Off axis, free and held
+  // shear bracket the clamped strip at small strain (measured: free −80 … −94 %, held +49 …
+  // −30 % at 22.5°), so only the free-shear bound is asserted there.
+  const std::string dir = std::string(TWILL_SHARED_DIR) + "/data/reference/canvas/";
+  const MaterialLaw law(canvas());
+  struct Direction {
+    const char* label;
+    double angle_deg;
+  };
+  for (const Direction d : {Direction{"warp", 90.0}, Direction{"weft", 0.0},
+                            Direction{"bias", 45.0}, Direction{"a22.5", 22.5},
+                            Direction{"a67.5", 67.5}}) {
+    const TensileRun run = read_tensile_run_csv(dir + "tensile-" + d.label + ".csv");
+    ASSERT_FALSE(run.force_N.empty());
+    double lowest = 1e300, highest = -1e300, held_lowest = 1e300, held_highest = -1e300;
+    for (size_t i = 0; i < run.force_N.size(); ++i) {
+      const UniformStrainPoint p =
+          uniform_strain_tension(law, strip_at(d.angle_deg), run.extension_mm[i], false);
+      const UniformStrainPoint held = uniform_strain_tension(
+          law, strip_at(d.angle_deg, UniformStrainShear::Held), run.extension_mm[i], false);
+      ASSERT_TRUE(p.converged && held.converged) << p.message << held.message;
+      const double relative = p.force_N / run.force_N[i] - 1.0;
+      const double held_relative = held.force_N / run.force_N[i] - 1.0;
+      lowest = std::min(lowest, relative), highest = std::max(highest, relative);
+      held_lowest = std::min(held_lowest, held_relative);
+      held_highest = std::max(held_highest, held_relative);
+      EXPECT_LT(p.force_N, run.force_N[i]) << d.label << " at " << run.extension_mm[i] << " mm";
+      if (d.angle_deg == 0.0 || d.angle_deg == 90.0) {
+        EXPECT_GT(relative, -0.04) << d.label << " at " << run.extension_mm[i] << " mm";
+      }
+    }
+    std::printf("[measured] uniform strain vs converged reference, canvas %-5s (%zu points): "
+                "free shear %+.1f%% … %+.1f%%, held shear %+.1f%% … %+.1f%%\n",
+                d.label, run.force_N.size(), 100.0 * highest, 100.0 * lowest,
+                100.0 * held_highest, 100.0 * held_lowest);
   }
 }
 
