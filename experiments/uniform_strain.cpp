@@ -48,11 +48,13 @@ struct StripFrameLaw {
   Matrix3 t;
   int evaluations = 0;
 
+  Vector3 e = Vector3::Zero(), ge = Vector3::Zero();  ///< law strain and ∂ψ/∂e of the last call
+
   double operator()(const Vector3& strain, Vector3* g, Matrix3* h) {
     ++evaluations;
-    Vector3 ge;
     Matrix3 he;
-    const double psi = law.energy_density(t * strain, &ge, &he);
+    e = t * strain;
+    const double psi = law.energy_density(e, &ge, &he);
     *g = t.transpose() * ge;
     *h = t.transpose() * he * t;
     return psi;
@@ -177,10 +179,10 @@ UniformStrainPoint uniform_strain_tension(const MaterialLaw& law, const UniformS
   // Round-off scale of g_l = Σ_i T_il ∂ψ/∂e_i: the sum of the magnitudes of its terms, where
   // ∂ψ/∂e1 = F1' + a12 e2 and ∂ψ/∂e2 = F3' + a12 e1 (material_law.hpp) count as two terms each.
   const double a12 = law.parameters().a12_Pa;
-  auto noise_scale = [&](const Vector3& strain, int l) {
-    const Vector3 e = psi.t * strain;
-    Vector3 ge;
-    law.energy_density(e, &ge);
+  // Evaluated at the strain of psi's last call.
+  auto noise_scale = [&](int l) {
+    const Vector3& e = psi.e;
+    const Vector3& ge = psi.ge;
     const Vector3 terms(std::abs(ge[0] - a12 * e[1]) + std::abs(a12 * e[1]),
                         std::abs(ge[1] - a12 * e[0]) + std::abs(a12 * e[0]), std::abs(ge[2]));
     return psi.t.col(l).cwiseAbs().dot(terms);
@@ -192,9 +194,8 @@ UniformStrainPoint uniform_strain_tension(const MaterialLaw& law, const UniformS
   auto solve_eyy = [&](double exy) {
     const ScalarRoot r = safeguarded_newton(
         [&](double y) {
-          const Vector3 strain(exx, y, exy);
-          psi(strain, &g, &h);
-          return Residual{g[1], h(1, 1), noise_scale(strain, 1)};
+          psi(Vector3(exx, y, exy), &g, &h);
+          return Residual{g[1], h(1, 1), noise_scale(1)};
         },
         eyy, -0.5);
     if (!r.converged) {
@@ -215,11 +216,9 @@ UniformStrainPoint uniform_strain_tension(const MaterialLaw& law, const UniformS
         [&](double s) {
           if (std::isnan(solve_eyy(s)))
             return Residual{std::numeric_limits<double>::quiet_NaN(), 0, 0};
-          const Vector3 strain(exx, eyy, s);
-          psi(strain, &g, &h);
+          psi(Vector3(exx, eyy, s), &g, &h);
           return Residual{g[2], h(2, 2) - h(1, 2) * h(1, 2) / h(1, 1),
-                          noise_scale(strain, 2) +
-                              std::abs(h(1, 2) / h(1, 1)) * noise_scale(strain, 1)};
+                          noise_scale(2) + std::abs(h(1, 2) / h(1, 1)) * noise_scale(1)};
         },
         lateral_guess[1], -std::numeric_limits<double>::infinity());
     if (!r.converged) {
