@@ -272,6 +272,40 @@ TEST(CatmullClarkKL, PatchTestUniformStretchIsExactAtEveryAngle) {
   }
 }
 
+TEST(CatmullClarkKL, FaceMeanReplacesOnlyTheFibreStretchesByTheirFaceMean) {
+  // docs/catmull_clark_kl.md §12: with FibreStrain::FaceMean the law sees, at every Gauss
+  // point of a face, the area-weighted face mean of Ẽ11 and Ẽ22 (on this affine grid |A1×A2|
+  // is constant, so the weights are the tensor Gauss weights, point p = ng·b + a) and the
+  // point's own Ẽ12 and bending strain.
+  CatmullClarkKLOptions pointwise, mean;
+  mean.fibre_strain = FibreStrain::FaceMean;
+  const CatmullClarkKL a(small_strip(30), canvas_nonlinear(), pointwise);
+  const CatmullClarkKL b(small_strip(30), canvas_nonlinear(), mean);
+  const VectorXd q = distorted_state(a);
+  const auto own = a.quadrature_strains(q), seen = b.quadrature_strains(q);
+  ASSERT_EQ(own.size(), seen.size());
+  const size_t per_face = own.size() / static_cast<size_t>(a.num_faces());
+  double spread = 0.0;  // how much Ẽ11 varies inside a face: the projection must remove it
+  for (size_t face = 0; face < static_cast<size_t>(a.num_faces()); ++face) {
+    const GaussLegendreRule rule = GaussLegendreRule::make(a.options().gauss_points_per_direction);
+    const size_t ng = rule.nodes.size();
+    ASSERT_EQ(ng * ng, per_face);
+    Eigen::Vector2d average = Eigen::Vector2d::Zero();
+    for (size_t p = 0; p < per_face; ++p)
+      average += 0.25 * rule.weights[p % ng] * rule.weights[p / ng] * own[face * per_face + p].membrane.head<2>();
+    for (size_t p = 0; p < per_face; ++p) {
+      const auto& o = own[face * per_face + p];
+      const auto& s = seen[face * per_face + p];
+      spread = std::max(spread, std::abs(o.membrane[0] - average[0]));
+      EXPECT_LT((s.membrane.head<2>() - average).cwiseAbs().maxCoeff(), 1e-15);
+      EXPECT_EQ(s.membrane[2], o.membrane[2]);
+      EXPECT_EQ(s.bending, o.bending);
+    }
+  }
+  EXPECT_GT(spread, 1e-4);  // the state does vary inside faces, so the check above has teeth
+  EXPECT_NE(a.energy(q, nullptr, nullptr), b.energy(q, nullptr, nullptr));
+}
+
 TEST(CatmullClarkKL, RigidMotionInvariance) {
   for (FibreStrain fibre_strain : {FibreStrain::Pointwise, FibreStrain::FaceMean}) {
   const CatmullClarkKL d(small_strip(30), canvas_nonlinear(), two_threads(fibre_strain));
