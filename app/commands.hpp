@@ -31,5 +31,9 @@ void add_inspect_command(CLI::App& app, Context& context);
 void add_simulate_command(CLI::App& app, Context& context);
 /// `twill bench --reference DIR`: tensile-curve timings per discretization and resolution.
 void add_bench_command(CLI::App& app, Context& context);
+/// `twill fit DATASET [-c CONFIG] [--set K=V] [-o OUTDIR]`: the paper's protocol (command_fit.cpp).
+void add_fit_command(CLI::App& app, Context& context);
+/// `twill recover ...`: one parameter-recovery run (optimiser studies, command_recover.cpp).
+void add_recover_command(CLI::App& app, Context& context);
 
 }  // namespace twill

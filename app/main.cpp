@@ -48,6 +48,8 @@ int main(int argc, char** argv) {
     twill::add_inspect_command(app, context);
     twill::add_simulate_command(app, context);
     twill::add_bench_command(app, context);
+    twill::add_fit_command(app, context);
+    twill::add_recover_command(app, context);
     // -----------------------------------------------------------------------------------------
 
     app.parse(argc, argv);

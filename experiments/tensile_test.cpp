@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <numbers>
 #include <stdexcept>
 
 #include "core/constrained_dofs.hpp"
@@ -94,6 +95,37 @@ Eigen::VectorXd TensileExperiment::lateral_strain_gradient(const Eigen::VectorXd
   Eigen::VectorXd w(6);
   w << -u, u;
   return lateral_probe_.transpose() * (w / (1e-3 * setup_.width_mm));
+}
+
+Eigen::Vector3d TensileExperiment::largest_material_strain(const Eigen::VectorXd& q,
+                                                         int samples_across) const {
+  const StripSpec& s = discretization_->strip();
+  const int nx = std::max(2, static_cast<int>(std::lround(samples_across * s.length_m / s.width_m)));
+  const int ny = std::max(2, samples_across);
+  const double h = 1e-3 * std::min(s.length_m / s.cells_along, s.width_m / s.cells_across);
+  std::vector<Eigen::Vector2d> points;
+  for (int i = 0; i < nx; ++i)
+    for (int j = 0; j < ny; ++j) {
+      // Cell-centred samples: never on the boundary, so ±h stays inside the strip.
+      const Eigen::Vector2d c((i + 0.5) * s.length_m / nx, (j + 0.5) * s.width_m / ny - 0.5 * s.width_m);
+      for (const Eigen::Vector2d& d : {Eigen::Vector2d(h, 0), Eigen::Vector2d(-h, 0),
+                                       Eigen::Vector2d(0, h), Eigen::Vector2d(0, -h)})
+        points.push_back(c + d);
+    }
+  const Eigen::VectorXd x = discretization_->point_evaluation(points) * q;
+  const double theta = setup_.angle_deg * std::numbers::pi / 180.0;
+  const Eigen::Vector2d d2(std::cos(theta), std::sin(theta)), d1(-std::sin(theta), std::cos(theta));
+  Eigen::Vector3d largest = Eigen::Vector3d::Zero();
+  for (size_t k = 0; k < points.size() / 4; ++k) {
+    Eigen::Matrix<double, 3, 2> F;
+    F.col(0) = (x.segment<3>(3 * (4 * k)) - x.segment<3>(3 * (4 * k + 1))) / (2 * h);
+    F.col(1) = (x.segment<3>(3 * (4 * k + 2)) - x.segment<3>(3 * (4 * k + 3))) / (2 * h);
+    const Eigen::Matrix2d E = 0.5 * (F.transpose() * F - Eigen::Matrix2d::Identity());
+    largest[0] = std::max(largest[0], std::abs(d1.dot(E * d1)));
+    largest[1] = std::max(largest[1], std::abs(d2.dot(E * d2)));
+    largest[2] = std::max(largest[2], std::abs(d1.dot(E * d2)));
+  }
+  return largest;
 }
 
 void TensileExperiment::set_sensitivity_parameters(const std::vector<int>& flat_indices) {

@@ -1,0 +1,693 @@
+#include "fitting/fit_protocol.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <limits>
+#include <cmath>
+#include <memory>
+#include <numeric>
+#include <stdexcept>
+
+#include "core/discretization_registry.hpp"
+#include "core/fit_objective.hpp"
+#include "core/input_error.hpp"
+#include "core/repeat_selection.hpp"
+#include "experiments/predictors.hpp"
+#include "experiments/uniform_strain.hpp"
+#include "optimizers/optimizer.hpp"
+
+namespace twill {
+
+OptionSchema fit_config_schema() {
+  OptionSchema s;
+  s.add_component("discretization", registry_category::kDiscretization, "catmull-clark-kl",
+                  "shell discretisation of every simulated test");
+  s.add_component("optimizer", registry_category::kOptimizer, "bfgs",
+                  "minimiser of the fit objective (paper Eq. 3) in every stage");
+  OptionSchema& stop = s.add_section("stopping", "per-stage limits, applied to the optimiser's common options");
+  stop.add_int("max_iterations", 60, "iterations per stage and resolution").at_least(1);
+  stop.add_int("max_evaluations", 150, "objective evaluations per stage and resolution").at_least(1);
+  stop.add_double("gradient_tolerance", 1e-7, "projected-gradient inf-norm in scaled unknowns").at_least(0.0);
+  stop.add_double("function_tolerance", 1e-7, "relative change of the objective per iteration").at_least(0.0);
+  OptionSchema& init = s.add_section("initial_guess", "uniform-strain initial guesses (paper §5.3)");
+  init.add_string("optimizer", "gauss-newton", "optimiser of the uniform-strain fits")
+      .choices({"bfgs", "gauss-newton", "ipopt", "nlopt"});
+  init.add_bool("enabled", true, "fit the uniform-strain model first (false: slopes only)");
+  OptionSchema& rep = s.add_section("repeats", "which repeated runs are fitted (paper §6.4)");
+  rep.add_string("rule", "paper", "paper: largest forces for warp/weft, one random run for others")
+      .choices({"paper", "largest", "random", "all"});
+  rep.add_int("seed", 1, "seed of the random choice").at_least(0);
+  OptionSchema& data = s.add_section("data", "measured points used in the objective");
+  data.add_int("max_points", 20, "at most this many points per run, evenly spread").at_least(2);
+  data.add_double("min_force_fraction", 0.02, "drop points below this fraction of the run's peak force")
+      .range(0.0, 0.9);
+  OptionSchema& deg = s.add_section("degree", "automatic degree choice (paper §5.4)");
+  deg.add_int("max", 3, "highest curve degree").range(1, 6);
+  deg.add_double("target_error", 0.02, "stop raising below this average relative error (bias: twice it)")
+      .greater_than(0.0);
+  deg.add_double("min_improvement", 0.2, "stop raising when a raise improved the error by less than this fraction")
+      .range(0.0, 1.0);
+  OptionSchema& res = s.add_section("resolution", "multiresolution (paper §5.5.4)");
+  res.add_int("coarse_cells_across", 8, "cells across the strip width at the coarsest level").at_least(1);
+  res.add_int("levels", 3, "levels, each doubling the cells (8x12 -> 16x24 -> 32x48)").range(1, 5);
+  OptionSchema& stages = s.add_section("stages", "the stages of paper §5.2");
+  stages.add_double("cutoff_fraction", 0.95, "strain cutoffs at this fraction of the largest strain seen")
+      .range(0.5, 1.0);
+  stages.add_bool("cutoffs", true, "set the strain cutoffs (§5.2 steps 4 and 6)");
+  stages.add_bool("bend", true, "fit the thickness to the cantilever data (§5.2 step 7)");
+  stages.add_bool("validation", true, "evaluate the validation strips with an angle offset (§7)");
+  OptionSchema& bend = s.add_section("bend", "cantilever simulation (paper §4)");
+  bend.add_int("cells_across", 4, "cells across the 25 mm strip").at_least(1);
+  bend.add_int("cells_along", 64, "cells along the overhang").at_least(4);
+  bend.add_bool("find_overhang", true, "also report the simulated overhang at 41.5 degrees");
+  OptionSchema& val = s.add_section("validation", "validation strips (paper §7)");
+  val.add_double("max_offset_deg", 10.0, "search the angle offset in [-this, this]").range(0.0, 45.0);
+  val.add_double("offset_tolerance_deg", 0.1, "golden-section tolerance of the offset").greater_than(0.0);
+  OptionSchema& solver = s.add_section("solver", "quasistatic equilibrium (paper §6.1)");
+  solver.add_double("gradient_tolerance", 1e-8, "Newton stops at |g_f| <= this * force scale").greater_than(0.0);
+  return s;
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
+
+struct RunData {
+  const TensileTest* test = nullptr;
+  const TensileRun* run = nullptr;
+  std::vector<double> extension_mm;
+  Eigen::VectorXd force_N;
+};
+
+// Loading branch, small forces dropped, evenly thinned (data.* keys).
+RunData measured_points(const TensileTest& test, const TensileRun& run, const Options& data) {
+  const double peak_force = *std::max_element(run.force_N.begin(), run.force_N.begin() + static_cast<long>(run.peak_index) + 1);
+  const double floor = data.get_double("min_force_fraction") * peak_force;
+  std::vector<size_t> keep;
+  double last_extension = -1e300;
+  for (size_t i = 0; i <= run.peak_index; ++i)
+    if (run.force_N[i] > floor && run.force_N[i] > 0 && run.extension_mm[i] > 0 &&
+        run.extension_mm[i] > last_extension) {
+      keep.push_back(i);
+      last_extension = run.extension_mm[i];
+    }
+  const size_t max_points = static_cast<size_t>(data.get_int("max_points"));
+  std::vector<size_t> chosen;
+  if (keep.size() <= max_points) {
+    chosen = keep;
+  } else {
+    for (size_t j = 0; j < max_points; ++j)
+      chosen.push_back(keep[(j * (keep.size() - 1)) / (max_points - 1)]);
+  }
+  RunData d;
+  d.test = &test;
+  d.run = &run;
+  d.force_N.resize(static_cast<Eigen::Index>(chosen.size()));
+  for (size_t j = 0; j < chosen.size(); ++j) {
+    d.extension_mm.push_back(run.extension_mm[chosen[j]]);
+    d.force_N[static_cast<Eigen::Index>(j)] = run.force_N[chosen[j]];
+  }
+  if (d.extension_mm.size() < 2)
+    throw InputError({run.path, 0, "force_N"},
+                     "fewer than 2 usable points in the loading branch (forces above " +
+                         fmt::format("{:.3g}", floor) + " N)");
+  return d;
+}
+
+// Small-strain secant modulus τ·E along the strip [N/m] from the first points: F/(W ε).
+double small_strain_membrane_modulus(const RunData& d) {
+  const size_t n = std::min<size_t>(3, d.extension_mm.size());
+  double sum = 0;
+  for (size_t i = 0; i < n; ++i) {
+    const double strain = d.extension_mm[i] / d.test->gauge_length_mm;
+    sum += d.force_N[static_cast<Eigen::Index>(i)] / (1e-3 * d.test->width_mm * strain);
+  }
+  return sum / static_cast<double>(n);
+}
+
+struct Stage {
+  std::string name;      // warp, weft, bias
+  double angle_deg;      // 90, 0, 45
+  std::string stiffness;  // a11_Pa, ...
+  std::string curve;      // eta1, ...
+  Curve MaterialParameters::*curve_member;
+};
+
+const std::vector<Stage>& stages() {
+  static const std::vector<Stage> s = {{"warp", 90.0, "a11_Pa", "eta1", &MaterialParameters::eta1},
+                                       {"weft", 0.0, "a22_Pa", "eta3", &MaterialParameters::eta3},
+                                       {"bias", 45.0, "G12_Pa", "eta4", &MaterialParameters::eta4}};
+  return s;
+}
+
+// The raise of §5.4: one more term with a small weight, so the curve starts near where the
+// lower degree ended; the new exponent is chosen by Protocol::raised_start().
+void add_term(Curve* c, double alpha) {
+  const double weight = 0.05;
+  c->mu[0] -= weight;
+  c->mu.push_back(weight);
+  c->alpha.push_back(alpha);
+}
+
+double mean(const std::vector<double>& v) {
+  return v.empty() ? 0.0 : std::accumulate(v.begin(), v.end(), 0.0) / static_cast<double>(v.size());
+}
+
+std::string resolution_text(const TensileSetup& s) {
+  return std::to_string(s.cells_across) + "x" + std::to_string(s.cells_along);
+}
+
+class Protocol {
+ public:
+  Protocol(const Dataset& dataset, const Options& config, const Registry& registry,
+           const FitProgress& progress)
+      : dataset_(dataset), config_(config), registry_(registry), progress_(progress) {
+    discretization_ = config.get_component("discretization");
+    factory_ = [this](const StripSpec& strip, const MaterialParameters& p) {
+      return registry_.create<DiscretizationFactories>(registry_category::kDiscretization,
+                                                       discretization_, strip, p);
+    };
+    solver_.gradient_tolerance = config.get_section("solver").get_double("gradient_tolerance");
+  }
+
+  FitReport run() {
+    const auto start = Clock::now();
+    report_.dataset = dataset_.name;
+    report_.folder = dataset_.folder;
+    select_data();
+    auto t = Clock::now();
+    initial_guess();
+    report_.timing_s.emplace_back("initial_guess", seconds_since(t));
+    // Phase A, coarsest level: degrees (§5.4) and cutoffs (§5.2 steps 4, 6) in the paper's
+    // stage order. Phase B: every finer level refits each stage's chosen degree from the
+    // coarser solution with all cutoffs in place (§5.5.4), so the finest fit sees the final
+    // model; with a single level, phase B refits that level once the cutoffs are set.
+    const bool cutoffs = config_.get_section("stages").get_bool("cutoffs");
+    for (const Stage& stage : stages()) {
+      if (runs_for(stage.angle_deg).empty()) {
+        note("no " + stage.name + " test: stage skipped, its parameters stay at the initial guess");
+        continue;
+      }
+      t = Clock::now();
+      choose_degree(stage);
+      report_.timing_s.emplace_back(stage.name + " (degree, coarsest level)", seconds_since(t));
+      if (stage.name == "weft" && cutoffs) set_stretch_cutoffs();
+    }
+    if (cutoffs && !runs_for(45.0).empty()) set_shear_cutoff();
+    for (int level = levels() == 1 ? 0 : 1; level < levels(); ++level)
+      for (const Stage& stage : stages()) {
+        if (runs_for(stage.angle_deg).empty()) continue;
+        t = Clock::now();
+        MaterialParameters refined = params_;
+        if (!fit_at(stage, level, &refined).ok)
+          throw std::runtime_error("stage " + stage.name + ": fit failed at level " + std::to_string(level));
+        params_ = refined;
+        report_.timing_s.emplace_back(stage.name + " (level " + std::to_string(level) + ")", seconds_since(t));
+      }
+    t = Clock::now();
+    if (config_.get_section("stages").get_bool("bend") && !dataset_.bend.empty()) fit_bend();
+    report_.timing_s.emplace_back("bend", seconds_since(t));
+    t = Clock::now();
+    final_fit_curves();
+    if (config_.get_section("stages").get_bool("validation")) validate();
+    report_.timing_s.emplace_back("validation", seconds_since(t));
+    report_.timing_s.emplace_back("total", seconds_since(start));
+    report_.parameters = params_;
+    return report_;
+  }
+
+ private:
+  void say(int level, const std::string& line) {
+    if (progress_) progress_(level, line);
+  }
+  void note(const std::string& line) {
+    report_.notes.push_back(line);
+    say(0, line);
+  }
+
+  void select_data() {
+    const Options& rep = config_.get_section("repeats");
+    const RepeatRule rule = repeat_rule_from_string(rep.get_string("rule"));
+    const auto seed = static_cast<std::uint64_t>(rep.get_int("seed"));
+    for (const TensileTest& test : dataset_.tensile) {
+      const RepeatSelection sel = select_repeats(test, rule, seed);
+      if (test.role == TestRole::Fit) note(test.label + ": " + sel.reason);
+      const std::vector<size_t> all = [&] {
+        std::vector<size_t> v(test.runs.size());
+        std::iota(v.begin(), v.end(), 0);
+        return v;
+      }();
+      // Validation strips: every run is evaluated (paper §7, Table 5 reports per run).
+      for (size_t i : test.role == TestRole::Fit ? sel.runs : all)
+        (test.role == TestRole::Fit ? fit_runs_ : validation_runs_)
+            .push_back(measured_points(test, test.runs[i], config_.get_section("data")));
+    }
+    if (runs_for(90.0).empty())
+      throw InputError({dataset_.folder + "/fabric.yaml", 0, "tensile"},
+                       "the fit needs a warp test (angle_deg: 90, role: fit)");
+  }
+
+  std::vector<const RunData*> runs_for(double angle) const {
+    std::vector<const RunData*> out;
+    for (const RunData& d : fit_runs_)
+      if (std::abs(d.test->angle_deg - angle) < 1e-9) out.push_back(&d);
+    return out;
+  }
+
+  TensileSetup setup_for(const TensileTest& test, int level) const {
+    const Options& res = config_.get_section("resolution");
+    TensileSetup s;
+    s.angle_deg = test.angle_deg;
+    s.width_mm = test.width_mm;
+    s.gauge_length_mm = test.gauge_length_mm;
+    s.cells_across = static_cast<int>(res.get_int("coarse_cells_across")) << level;
+    s.cells_along = std::max(1, static_cast<int>(std::lround(s.cells_across * test.gauge_length_mm / test.width_mm)));
+    return s;
+  }
+  int levels() const { return static_cast<int>(config_.get_section("resolution").get_int("levels")); }
+
+  std::string run_label(const RunData& d) const { return d.test->label + " " + d.run->name(); }
+
+  // ---- §5.3 initial guess --------------------------------------------------------------------
+  void initial_guess() {
+    MaterialParameters& p = params_;
+    p.density_kg_m2 = 1e-3 * dataset_.areal_density_g_m2;
+    p.thickness_m = 1e-3 * dataset_.thickness_mm;
+    p.eta1 = p.eta3 = p.eta4 = Curve::linear();
+    const double tau = p.thickness_m;
+    auto modulus = [&](double angle) {
+      std::vector<double> m;
+      for (const RunData* d : runs_for(angle)) m.push_back(small_strain_membrane_modulus(*d) / tau);
+      return mean(m);
+    };
+    p.a11_Pa = modulus(90.0);
+    p.a22_Pa = runs_for(0.0).empty() ? p.a11_Pa : modulus(0.0);
+    p.a12_Pa = MaterialParameters::tied_a12(p.a11_Pa, p.a22_Pa);
+    // Bias: for stiff yarns the 45° modulus is ≈ 4 G12 (the strip deforms by shear alone).
+    p.G12_Pa = runs_for(45.0).empty() ? 0.01 * p.a11_Pa : 0.25 * modulus(45.0);
+    note(fmt::format("initial slopes: a11 {:.4g} Pa, a22 {:.4g} Pa, G12 {:.4g} Pa (tau {:.3g} mm)",
+                     p.a11_Pa, p.a22_Pa, p.G12_Pa, 1e3 * tau));
+    if (!config_.get_section("initial_guess").get_bool("enabled")) return;
+
+    const std::string name = config_.get_section("initial_guess").get_string("optimizer");
+    for (const Stage& stage : stages()) {
+      const auto runs = runs_for(stage.angle_deg);
+      if (runs.empty()) continue;
+      std::vector<std::shared_ptr<Predictor>> predictors;
+      for (const RunData* d : runs)
+        predictors.push_back(std::make_shared<UniformStrainPredictor>(
+            run_label(*d), setup_for(*d->test, 0), d->extension_mm, d->force_N));
+      ParameterMap map(p, {stage.stiffness, stage.curve + ".*"});
+      FitObjective objective(map, predictors);
+      std::unique_ptr<Optimizer> optimizer = make_stage_optimizer(name);
+      const OptimizerResult r = optimizer->minimize(objective, map.initial_x());
+      if (std::isfinite(r.summary.final_value)) p = map.parameters(r.x);
+      objective.evaluate(r.x, nullptr);
+      for (size_t i = 0; i < runs.size(); ++i) {
+        FitInitialGuess g;
+        g.label = predictors[i]->label();
+        g.avg_rel_error_uniform = objective.average_relative_error(static_cast<int>(i));
+        report_.initial_guess.push_back(g);
+      }
+      say(0, fmt::format("initial guess {}: uniform-strain fit {} ({}), error {:.2f} %", stage.name,
+                         name, to_string(r.status), 100 * mean_error(objective, runs.size())));
+    }
+    // Agreement of the uniform-strain model with the full solve at the guess (coarsest level).
+    size_t k = 0;
+    for (const Stage& stage : stages())
+      for (const RunData* d : runs_for(stage.angle_deg)) {
+        TensilePredictor full(run_label(*d), setup_for(*d->test, 0), factory_, p, d->extension_mm,
+                              d->force_N, solver_);
+        UniformStrainPredictor uniform(run_label(*d), setup_for(*d->test, 0), d->extension_mm, d->force_N);
+        Eigen::VectorXd a, b;
+        std::string message;
+        if (k < report_.initial_guess.size() && full.predict(p, {}, &a, nullptr, &message) &&
+            uniform.predict(p, {}, &b, nullptr, &message)) {
+          report_.initial_guess[k].avg_rel_difference_full = (b - a).cwiseAbs().sum() / a.cwiseAbs().sum();
+          say(0, fmt::format("  {}: uniform strain vs full solve at the guess: {:.2f} %", run_label(*d),
+                             100 * report_.initial_guess[k].avg_rel_difference_full));
+        }
+        ++k;
+      }
+  }
+
+  static double mean_error(const FitObjective& objective, size_t n) {
+    std::vector<double> e;
+    for (size_t i = 0; i < n; ++i) e.push_back(objective.average_relative_error(static_cast<int>(i)));
+    return mean(e);
+  }
+
+  std::unique_ptr<Optimizer> make_stage_optimizer(const std::string& name_override = "") const {
+    ComponentChoice choice = config_.get_component("optimizer");
+    if (!name_override.empty() && name_override != choice.name) {
+      choice.name = name_override;
+      const RegistryCategory* category = registry_.find_category(registry_category::kOptimizer);
+      if (!category) throw std::logic_error("no optimizer category registered");
+      choice.options = default_options(category->at(name_override).options, nullptr);
+    }
+    const Options& stop = config_.get_section("stopping");
+    choice.options.set("max_iterations", stop.get_int("max_iterations"));
+    choice.options.set("max_evaluations", stop.get_int("max_evaluations"));
+    choice.options.set("gradient_tolerance", stop.get_double("gradient_tolerance"));
+    choice.options.set("function_tolerance", stop.get_double("function_tolerance"));
+    return registry_.create<OptimizerFactories>(registry_category::kOptimizer, choice);
+  }
+
+  const FitStageRecord& record_stage(const std::string& stage, const std::string& resolution, int degree,
+                                     double error, const Optimizer& optimizer, const OptimizerResult& r,
+                                     const FitObjective& objective, Clock::time_point start) {
+    FitStageRecord rec;
+    rec.stage = stage;
+    rec.resolution = resolution;
+    rec.degree = degree;
+    rec.avg_rel_error = error;
+    rec.optimizer = optimizer.name();
+    rec.status = to_string(r.status);
+    rec.iterations = r.summary.iterations;
+    rec.evaluations = objective.evaluations();
+    rec.equilibrium_solves = objective.equilibrium_solves();
+    rec.wall_time_s = seconds_since(start);
+    report_.stages.push_back(rec);
+    return report_.stages.back();
+  }
+
+  // ---- §5.2 steps 2, 3, 5 with §5.4 and §5.5.4 --------------------------------------------------
+  struct StageResult {
+    double error = 0;
+    bool ok = false;
+  };
+
+  StageResult fit_at(const Stage& stage, int level, MaterialParameters* p) {
+    const auto t = Clock::now();
+    const auto runs = runs_for(stage.angle_deg);
+    std::vector<std::shared_ptr<Predictor>> predictors;
+    std::string resolution;
+    for (const RunData* d : runs) {
+      const TensileSetup setup = setup_for(*d->test, level);
+      resolution = resolution_text(setup);
+      predictors.push_back(std::make_shared<TensilePredictor>(run_label(*d), setup, factory_, *p,
+                                                              d->extension_mm, d->force_N, solver_));
+    }
+    ParameterMap map(*p, {stage.stiffness, stage.curve + ".*"});
+    FitObjective objective(map, predictors);
+    const int degree = ((*p).*(stage.curve_member)).degree();
+    objective.set_progress([&](const IterationRecord& it, const Eigen::VectorXd&) {
+      say(1, fmt::format("  {} {} degree {} it {:3d}: eps {:.4e} |g| {:.2e} ({} solves)", stage.name,
+                         resolution, degree, it.iteration, it.value, it.gradient_norm,
+                         objective.equilibrium_solves()));
+    });
+    std::unique_ptr<Optimizer> optimizer = make_stage_optimizer();
+    const OptimizerResult r = optimizer->minimize(objective, map.initial_x());
+    StageResult out;
+    if (!std::isfinite(r.summary.final_value)) {
+      note(fmt::format("{} {} degree {}: optimiser failed ({}): {}", stage.name, resolution, degree,
+                       to_string(r.status), r.message));
+      return out;
+    }
+    *p = map.parameters(r.x);
+    objective.evaluate(r.x, nullptr);
+    out.ok = true;
+    out.error = mean_error(objective, runs.size());
+    const FitStageRecord& rec =
+        record_stage(stage.name, resolution, degree, out.error, *optimizer, r, objective, t);
+    say(0, fmt::format("{} {} degree {}: error {:.2f} % ({}, {} its, {} solves, {:.1f} s)", stage.name,
+                       resolution, degree, 100 * out.error, rec.status, rec.iterations,
+                       rec.equilibrium_solves, rec.wall_time_s));
+    return out;
+  }
+
+  // Start of a degree raise (§5.4): candidates for the new exponent α_new, each with the curve
+  // refitted on the cheap uniform-strain model (§5.3, curve entries only), then scored by one
+  // full evaluation at the coarsest level; the lowest ε wins. One candidate keeps the plain
+  // start (new term added, nothing refitted), so the raise never starts worse than it.
+  MaterialParameters raised_start(const Stage& stage, const MaterialParameters& best) {
+    const auto runs = runs_for(stage.angle_deg);
+    std::vector<std::shared_ptr<Predictor>> full;
+    for (const RunData* d : runs)
+      full.push_back(std::make_shared<TensilePredictor>(run_label(*d), setup_for(*d->test, 0), factory_, best,
+                                                        d->extension_mm, d->force_N, solver_));
+    const Curve& c = best.*(stage.curve_member);
+    const double alpha_max = std::abs(*std::max_element(c.alpha.begin(), c.alpha.end(),
+                                                        [](double a, double b) { return std::abs(a) < std::abs(b); }));
+    MaterialParameters chosen = best;
+    add_term(&(chosen.*(stage.curve_member)), std::max(4.0 * alpha_max, 8.0));
+    double chosen_value = std::numeric_limits<double>::infinity();
+    auto score = [&](const MaterialParameters& p) {
+      ParameterMap map(p, {stage.curve + ".*"});
+      FitObjective objective(map, full);
+      return objective.evaluate(map.initial_x(), nullptr);
+    };
+    chosen_value = score(chosen);
+    const bool use_uniform = config_.get_section("initial_guess").get_bool("enabled");
+    for (double alpha : {2.0, 10.0, 40.0, 150.0, 500.0}) {
+      MaterialParameters trial = best;
+      add_term(&(trial.*(stage.curve_member)), alpha);
+      if (use_uniform) {
+        std::vector<std::shared_ptr<Predictor>> uniform;
+        for (const RunData* d : runs)
+          uniform.push_back(std::make_shared<UniformStrainPredictor>(run_label(*d), setup_for(*d->test, 0),
+                                                                     d->extension_mm, d->force_N));
+        ParameterMap map(trial, {stage.curve + ".*"});
+        FitObjective objective(map, uniform);
+        const OptimizerResult r = make_stage_optimizer(
+            config_.get_section("initial_guess").get_string("optimizer"))->minimize(objective, map.initial_x());
+        if (std::isfinite(r.summary.final_value)) {
+          try {
+            trial = map.parameters(r.x);
+          } catch (const std::exception&) {
+            continue;
+          }
+        }
+      }
+      const double value = score(trial);
+      if (value < chosen_value) {
+        chosen_value = value;
+        chosen = trial;
+      }
+    }
+    const Curve& n = chosen.*(stage.curve_member);
+    say(0, fmt::format("{}: degree {} starts with alpha_new = {:.3g} (eps {:.4e})", stage.name, n.degree(),
+                       n.alpha.back(), chosen_value));
+    return chosen;
+  }
+
+  void choose_degree(const Stage& stage) {
+    const Options& deg = config_.get_section("degree");
+    const double target = deg.get_double("target_error") * (stage.name == "bias" ? 2.0 : 1.0);
+    MaterialParameters best = params_;
+    StageResult best_result = fit_at(stage, 0, &best);
+    if (!best_result.ok) throw std::runtime_error("stage " + stage.name + ": degree 1 fit failed");
+    while ((best.*(stage.curve_member)).degree() < deg.get_int("max") && best_result.error > target) {
+      MaterialParameters trial = raised_start(stage, best);
+      const StageResult r = fit_at(stage, 0, &trial);
+      if (!r.ok) break;
+      const double improvement = 1.0 - r.error / best_result.error;
+      if (r.error < best_result.error) {
+        best = trial;
+        best_result = r;
+      }
+      if (improvement < deg.get_double("min_improvement")) {
+        note(fmt::format("{}: raising the degree improved the error by {:.0f} % (< {:.0f} %): stop",
+                         stage.name, 100 * improvement, 100 * deg.get_double("min_improvement")));
+        break;
+      }
+    }
+    note(fmt::format("{}: degree {} chosen (error {:.2f} % at the coarsest level, target {:.1f} %)",
+                     stage.name, (best.*(stage.curve_member)).degree(), 100 * best_result.error,
+                     100 * target));
+    params_ = best;
+  }
+
+  // ---- §5.2 steps 4 and 6: cutoffs ------------------------------------------------------------
+  // "The largest strain seen": the largest |Ẽ| component over the strip's mid-surface in the
+  // stage's simulated tests at their largest measured extension, at the finest level
+  // (TensileExperiment::largest_material_strain samples the strain field on a grid).
+  double largest_simulated_strain(const Stage& stage, int component) const {
+    double largest = 0;
+    for (const RunData* d : runs_for(stage.angle_deg)) {
+      TensileExperiment e(setup_for(*d->test, levels() - 1), factory_, params_, solver_);
+      Eigen::VectorXd last;
+      const TensileCurve c = e.run(d->extension_mm, [&](int, const Eigen::VectorXd& q, const EquilibriumSolver&) {
+        last = q;
+      });
+      if (!c.completed || last.size() == 0) continue;
+      largest = std::max(largest, e.largest_material_strain(last)[component]);
+    }
+    if (!(largest > 0))
+      throw std::runtime_error("cutoffs: no converged " + stage.name + " simulation to measure strains on");
+    return largest;
+  }
+
+  void set_stretch_cutoffs() {
+    const double f = config_.get_section("stages").get_double("cutoff_fraction");
+    params_.cutoffs.E11_max = f * largest_simulated_strain(stages()[0], 0);
+    if (!runs_for(0.0).empty()) params_.cutoffs.E22_max = f * largest_simulated_strain(stages()[1], 1);
+    note(fmt::format("cutoffs: E11_max {:.4g}, E22_max {}", *params_.cutoffs.E11_max,
+                     params_.cutoffs.E22_max ? fmt::format("{:.4g}", *params_.cutoffs.E22_max) : "off"));
+  }
+
+  void set_shear_cutoff() {
+    const double f = config_.get_section("stages").get_double("cutoff_fraction");
+    params_.cutoffs.E12_max = f * largest_simulated_strain(stages()[2], 2);
+    note(fmt::format("cutoff: E12_max {:.4g}", *params_.cutoffs.E12_max));
+  }
+
+  // ---- §5.2 step 7: bend -------------------------------------------------------------------------
+  CantileverSetup bend_setup(const BendTest& b) const {
+    const Options& o = config_.get_section("bend");
+    CantileverSetup s;
+    s.angle_deg = b.angle_deg;
+    s.width_mm = b.width_mm;
+    s.cells_across = static_cast<int>(o.get_int("cells_across"));
+    s.cells_along = static_cast<int>(o.get_int("cells_along"));
+    return s;
+  }
+
+  void fit_bend() {
+    const auto t = Clock::now();
+    std::vector<std::shared_ptr<Predictor>> predictors;
+    std::vector<std::shared_ptr<CantileverPredictor>> cantilevers;
+    for (const BendTest& b : dataset_.bend) {
+      auto c = std::make_shared<CantileverPredictor>(b.label, bend_setup(b), factory_, params_,
+                                                     mean(b.overhang_mm), b.chord_angle_deg, solver_);
+      predictors.push_back(c);
+      cantilevers.push_back(c);
+    }
+    ParameterMap::Options options;
+    options.rescale_with_thickness = true;
+    ParameterMap map(params_, {"thickness_m"}, options);
+    FitObjective objective(map, predictors);
+    objective.set_progress([&](const IterationRecord& it, const Eigen::VectorXd& x) {
+      say(1, fmt::format("  bend it {:3d}: eps {:.4e}, tau {:.4g} mm", it.iteration, it.value,
+                         1e3 * x[0] * params_.thickness_m));
+    });
+    std::unique_ptr<Optimizer> optimizer = make_stage_optimizer();
+    const OptimizerResult r = optimizer->minimize(objective, map.initial_x());
+    if (!std::isfinite(r.summary.final_value))
+      throw std::runtime_error("bend stage failed: " + r.message + " / " + objective.last_failure());
+    params_ = map.parameters(r.x);
+    objective.evaluate(r.x, nullptr);
+    const FitStageRecord& rec = record_stage(
+        "bend",
+        fmt::format("{}x{}", config_.get_section("bend").get_int("cells_across"),
+                    config_.get_section("bend").get_int("cells_along")),
+        0, mean_error(objective, predictors.size()), *optimizer, r, objective, t);
+    say(0, fmt::format("bend: tau {:.4g} mm, error {:.2f} % ({}, {} its)", 1e3 * params_.thickness_m,
+                       100 * rec.avg_rel_error, rec.status, rec.iterations));
+    for (size_t i = 0; i < dataset_.bend.size(); ++i) {
+      const BendTest& b = dataset_.bend[i];
+      FitBend fb;
+      fb.label = b.label;
+      fb.angle_deg = b.angle_deg;
+      fb.measured_overhang_mm = mean(b.overhang_mm);
+      fb.chord_angle_deg = objective.last_predictions()[i][0];
+      if (config_.get_section("bend").get_bool("find_overhang")) {
+        CantileverExperiment e(bend_setup(b), factory_, params_, solver_);
+        const OverhangSearchResult s = e.find_overhang(b.chord_angle_deg);
+        if (s.converged) fb.overhang_mm = s.overhang_mm;
+      }
+      report_.bend.push_back(fb);
+    }
+  }
+
+  // ---- reports -------------------------------------------------------------------------------------
+  FitCurve curve_record(const RunData& d, const std::string& role, const Eigen::VectorXd& simulated) const {
+    FitCurve c;
+    c.label = d.test->label;
+    c.angle_deg = d.test->angle_deg;
+    c.run = d.run->name();
+    c.role = role;
+    c.extension_mm = d.extension_mm;
+    c.measured_N.assign(d.force_N.data(), d.force_N.data() + d.force_N.size());
+    c.simulated_N.assign(simulated.data(), simulated.data() + simulated.size());
+    c.avg_rel_error = (simulated - d.force_N).cwiseAbs().sum() / d.force_N.cwiseAbs().sum();
+    return c;
+  }
+
+  bool simulate(const RunData& d, double angle_deg, int level, Eigen::VectorXd* forces) const {
+    TensileSetup setup = setup_for(*d.test, level);
+    setup.angle_deg = angle_deg;
+    TensilePredictor p(run_label(d), setup, factory_, params_, d.extension_mm, d.force_N, solver_);
+    std::string message;
+    return p.predict(params_, {}, forces, nullptr, &message);
+  }
+
+  void final_fit_curves() {
+    const int finest = levels() - 1;
+    for (const RunData& d : fit_runs_) {
+      Eigen::VectorXd f;
+      if (!simulate(d, d.test->angle_deg, finest, &f)) {
+        note("final curve of " + run_label(d) + " did not converge");
+        continue;
+      }
+      FitCurve c = curve_record(d, "fit", f);
+      for (const Stage& s : stages())
+        if (std::abs(s.angle_deg - d.test->angle_deg) < 1e-9) c.degree = (params_.*(s.curve_member)).degree();
+      report_.fit.push_back(c);
+    }
+  }
+
+  // §7: golden section on Δθ at the coarsest level, error at the finest.
+  void validate() {
+    const Options& v = config_.get_section("validation");
+    const double max_offset = v.get_double("max_offset_deg");
+    const double tol = v.get_double("offset_tolerance_deg");
+    const int finest = levels() - 1;
+    for (const RunData& d : validation_runs_) {
+      auto error_at = [&](double offset, int level) {
+        Eigen::VectorXd f;
+        if (!simulate(d, d.test->angle_deg + offset, level, &f)) return 1e300;
+        return (f - d.force_N).cwiseAbs().sum() / d.force_N.cwiseAbs().sum();
+      };
+      double a = -max_offset, b = max_offset;
+      const double phi = 0.5 * (std::sqrt(5.0) - 1.0);
+      double x1 = b - phi * (b - a), x2 = a + phi * (b - a);
+      double f1 = error_at(x1, 0), f2 = error_at(x2, 0);
+      while (b - a > tol) {
+        if (f1 < f2) {
+          b = x2; x2 = x1; f2 = f1; x1 = b - phi * (b - a); f1 = error_at(x1, 0);
+        } else {
+          a = x1; x1 = x2; f1 = f2; x2 = a + phi * (b - a); f2 = error_at(x2, 0);
+        }
+      }
+      const double offset = 0.5 * (a + b);
+      Eigen::VectorXd f, f0;
+      if (!simulate(d, d.test->angle_deg + offset, finest, &f) || !simulate(d, d.test->angle_deg, finest, &f0)) {
+        note("validation " + run_label(d) + " did not converge");
+        continue;
+      }
+      FitCurve c = curve_record(d, "validation", f);
+      c.delta_theta_deg = offset;
+      c.avg_rel_error_without_offset = (f0 - d.force_N).cwiseAbs().sum() / d.force_N.cwiseAbs().sum();
+      report_.validation.push_back(c);
+      say(0, fmt::format("validation {}: offset {:+.2f} deg, error {:.2f} % (without offset {:.2f} %)",
+                         run_label(d), offset, 100 * c.avg_rel_error, 100 * c.avg_rel_error_without_offset));
+    }
+  }
+
+  const Dataset& dataset_;
+  const Options& config_;
+  const Registry& registry_;
+  FitProgress progress_;
+  ComponentChoice discretization_;
+  DiscretizationFactory factory_;
+  EquilibriumOptions solver_;
+  std::vector<RunData> fit_runs_, validation_runs_;
+  MaterialParameters params_;
+  FitReport report_;
+};
+
+}  // namespace
+
+FitReport run_fit(const Dataset& dataset, const Options& config, const Registry& registry,
+                  const FitProgress& progress) {
+  Protocol protocol(dataset, config, registry, progress);
+  return protocol.run();
+}
+
+}  // namespace twill

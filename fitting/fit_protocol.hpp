@@ -1,0 +1,119 @@
+#pragma once
+// The paper's fitting protocol end to end (paper §5.2–5.5, §6.4, §7; model.md §8): a dataset
+// in, simulation-ready parameters and a report out. `twill fit` (app/command_fit.cpp) is a thin
+// shell around run_fit() and write_fit_outputs().
+//
+// Why a folder of its own: the protocol uses every module (core's objective, experiments'
+// predictors, a discretisation and an optimiser chosen by name from the registry), so it fits
+// none of them (architecture.md allows such a folder).
+//
+// The protocol, every choice a config key (fit_config_schema(); defaults in brackets):
+//   0. data: per tensile test the repeats of §6.4 (`repeats.rule` [paper], `repeats.seed`),
+//      the loading branch of each run, points below `data.min_force_fraction` [0.02] of the
+//      run's peak force dropped (relative errors of near-zero forces are noise), at most
+//      `data.max_points` [20] points evenly spread over the rest;
+//   1. initial guess (§5.3): stiffnesses from the small-strain slopes, then the uniform-strain
+//      model of the strip fitted per stage with `initial_guess.optimizer` [gauss-newton]; its
+//      agreement with the full shell solve at the guess is measured and reported;
+//   2.–6. stages (§5.2): warp → a11, η1; weft → a22, η3; cutoffs Ẽ11max, Ẽ22max =
+//      `stages.cutoff_fraction` [95 %] of the largest strains seen; bias → G12, η4; Ẽ12max = 95 % of the largest shear seen;
+//      a12 = ½ min(a11, a22) throughout (§5.2);
+//      each stage raises the curve's degree from 1 (§5.4) while the average relative error is
+//      above `degree.target_error` [0.02 warp/weft; bias: ×2] and the last raise improved it by
+//      at least `degree.min_improvement` [20 %], up to `degree.max` [3]; a higher degree
+//      starts from the lower one;
+//      multiresolution (§5.5.4): the degree search and the cutoffs happen at the coarsest
+//      level (stages in the paper's order); then every finer level refits warp, weft and bias
+//      at their chosen degrees from the coarser solution, with all cutoffs in place (a single
+//      level is refitted once after the cutoffs); the cutoffs' "largest strain seen" is
+//      sampled on the finest level's simulated strips at the largest measured extension; levels are
+//      `resolution.coarse_cells_across` [8] × gauge/width·that along, doubled
+//      `resolution.levels` − 1 [2] times (8×12 → 16×24 → 32×48 for 75 mm gauges,
+//      8×24 → 16×48 → 32×96 for 150 mm);
+//   7. bend (§5.2 step 7): thickness τ from the cantilever chord angles at the measured
+//      overhangs, with a ← a·τ0/τ so the tensile fits are unchanged;
+//   8. validation (§7): per validation run, the angle offset Δθ minimising its error (golden
+//      section on [−`validation.max_offset_deg`, +…] [10°] at the coarsest level), then the
+//      error at the finest level with that offset.
+#include <functional>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "core/config.hpp"
+#include "core/dataset.hpp"
+#include "core/parameters.hpp"
+#include "core/registry.hpp"
+
+namespace twill {
+
+/// The schema of a fit config (components resolved through the registry).
+OptionSchema fit_config_schema();
+
+/// One line of progress (stage, resolution, iteration, current error). `level` 0 = stage
+/// boundaries, 1 = iterations.
+using FitProgress = std::function<void(int level, const std::string& line)>;
+
+struct FitCurve {
+  std::string label;  ///< test label, e.g. "warp"
+  double angle_deg = 0;
+  std::string run;    ///< run name, e.g. "warp-1"
+  std::string role;   ///< "fit" or "validation"
+  int degree = 0;     ///< degree of the stage's curve (0 for validation)
+  double delta_theta_deg = 0;  ///< validation angle offset (0 for fit curves)
+  double avg_rel_error = 0;    ///< Σ|p̂ − p̆| / Σ|p̆| (model.md §8)
+  double avg_rel_error_without_offset = 0;  ///< validation: error at Δθ = 0
+  std::vector<double> extension_mm, measured_N, simulated_N;
+};
+
+struct FitStageRecord {
+  std::string stage;       ///< "warp", "weft", "bias", "bend"
+  std::string resolution;  ///< e.g. "8x12"
+  int degree = 0;
+  double avg_rel_error = 0;  ///< over the stage's curves (mean)
+  std::string optimizer;
+  std::string status;        ///< optimiser status
+  int iterations = 0;
+  long evaluations = 0;
+  long equilibrium_solves = 0;
+  double wall_time_s = 0;
+};
+
+struct FitBend {
+  std::string label;
+  double angle_deg = 0;
+  double measured_overhang_mm = 0;  ///< mean of the repeats
+  double chord_angle_deg = 0;       ///< simulated at the measured overhang (41.5° measured)
+  double overhang_mm = 0;           ///< simulated overhang at 41.5° (0 when not computed)
+};
+
+struct FitInitialGuess {
+  std::string label;
+  double avg_rel_error_uniform = 0;  ///< uniform-strain model vs data
+  double avg_rel_difference_full = 0;  ///< uniform-strain vs full shell solve at the guess
+};
+
+struct FitReport {
+  std::string dataset;  ///< dataset name
+  std::string folder;
+  MaterialParameters parameters;
+  std::vector<FitInitialGuess> initial_guess;
+  std::vector<FitStageRecord> stages;
+  std::vector<FitCurve> fit;
+  std::vector<FitBend> bend;
+  std::vector<FitCurve> validation;
+  std::vector<std::pair<std::string, double>> timing_s;  ///< per stage, then "total"
+  std::vector<std::string> notes;  ///< choices made on the way (repeats, cutoffs, degrees)
+};
+
+/// Runs the protocol. Throws InputError for a dataset the protocol cannot use (e.g. no warp
+/// test) and std::runtime_error when a stage fails outright (the message names the stage).
+FitReport run_fit(const Dataset& dataset, const Options& config, const Registry& registry,
+                  const FitProgress& progress);
+
+/// Writes params.yaml, report.json (with every curve, for scripts/plot_fit.py), report.md and
+/// config.yaml (the resolved config) into `dir` (created if needed). `twill fit` writes into a
+/// staging folder and renames it only when everything, plots included, is complete.
+void write_fit_outputs(const FitReport& report, const Options& config, const std::string& dir);
+
+}  // namespace twill

@@ -1,0 +1,182 @@
+// Outputs of `twill fit` (fit_protocol.hpp write_fit_outputs): params.yaml (the contract of
+// dataset-format.md), report.json, report.md (paper Tables 3–5 for this dataset), config.yaml
+// (the resolved config) and the plots of paper Figs. 2–4 (scripts/plot_fit.py).
+#include <fmt/format.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <stdexcept>
+
+#include "core/params_io.hpp"
+#include "fitting/fit_protocol.hpp"
+
+namespace twill {
+
+namespace {
+
+using json = nlohmann::json;
+namespace fs = std::filesystem;
+
+json options_to_json(const Options& options);
+
+json value_to_json(const OptionValue& v) {
+  return std::visit(
+      [](const auto& x) -> json {
+        using T = std::decay_t<decltype(x)>;
+        if constexpr (std::is_same_v<T, Options>) {
+          return options_to_json(x);
+        } else if constexpr (std::is_same_v<T, ComponentChoice>) {
+          json j = options_to_json(x.options);
+          j["name"] = x.name;
+          return j;
+        } else if constexpr (std::is_same_v<T, std::vector<ComponentChoice>>) {
+          json list = json::array();
+          for (const ComponentChoice& c : x) {
+            json j = options_to_json(c.options);
+            j["name"] = c.name;
+            list.push_back(j);
+          }
+          return list;
+        } else {
+          return json(x);
+        }
+      },
+      v);
+}
+
+json options_to_json(const Options& options) {
+  json j = json::object();
+  for (const OptionEntry& e : options.entries()) j[e.key] = value_to_json(e.value);
+  return j;
+}
+
+json curve_json(const FitCurve& c) {
+  return {{"label", c.label},
+          {"angle_deg", c.angle_deg},
+          {"run", c.run},
+          {"role", c.role},
+          {"degree", c.degree},
+          {"delta_theta_deg", c.delta_theta_deg},
+          {"avg_rel_error", c.avg_rel_error},
+          {"avg_rel_error_without_offset", c.avg_rel_error_without_offset},
+          {"extension_mm", c.extension_mm},
+          {"measured_N", c.measured_N},
+          {"simulated_N", c.simulated_N}};
+}
+
+json report_json(const FitReport& r, const Options& config) {
+  json j;
+  j["dataset"] = r.dataset;
+  j["dataset_folder"] = r.folder;
+  j["config"] = options_to_json(config);
+  // Parameters as numbers (the YAML file is the contract; this is for tools).
+  json p;
+  p["density_kg_m2"] = r.parameters.density_kg_m2;
+  p["thickness_m"] = r.parameters.thickness_m;
+  p["a11_Pa"] = r.parameters.a11_Pa;
+  p["a12_Pa"] = r.parameters.a12_Pa;
+  p["a22_Pa"] = r.parameters.a22_Pa;
+  p["G12_Pa"] = r.parameters.G12_Pa;
+  for (const auto& [name, c] : {std::pair{"eta1", &r.parameters.eta1}, std::pair{"eta3", &r.parameters.eta3},
+                                std::pair{"eta4", &r.parameters.eta4}})
+    p[name] = {{"mu", c->mu}, {"alpha", c->alpha}};
+  auto opt = [](const std::optional<double>& v) { return v ? json(*v) : json(nullptr); };
+  p["cutoffs"] = {{"E11_min", opt(r.parameters.cutoffs.E11_min)}, {"E11_max", opt(r.parameters.cutoffs.E11_max)},
+                  {"E22_min", opt(r.parameters.cutoffs.E22_min)}, {"E22_max", opt(r.parameters.cutoffs.E22_max)},
+                  {"E12_max", opt(r.parameters.cutoffs.E12_max)}};
+  p["membrane_N_per_m"] = {{"tau_a11", r.parameters.thickness_m * r.parameters.a11_Pa},
+                           {"tau_a22", r.parameters.thickness_m * r.parameters.a22_Pa},
+                           {"tau_G12", r.parameters.thickness_m * r.parameters.G12_Pa}};
+  j["parameters"] = p;
+  j["initial_guess"] = json::array();
+  for (const auto& g : r.initial_guess)
+    j["initial_guess"].push_back({{"label", g.label},
+                                  {"avg_rel_error_uniform", g.avg_rel_error_uniform},
+                                  {"avg_rel_difference_full", g.avg_rel_difference_full}});
+  j["stages"] = json::array();
+  for (const auto& s : r.stages)
+    j["stages"].push_back({{"stage", s.stage}, {"resolution", s.resolution}, {"degree", s.degree},
+                           {"avg_rel_error", s.avg_rel_error}, {"optimizer", s.optimizer},
+                           {"status", s.status}, {"iterations", s.iterations},
+                           {"evaluations", s.evaluations}, {"equilibrium_solves", s.equilibrium_solves},
+                           {"wall_time_s", s.wall_time_s}});
+  j["fit"] = json::array();
+  for (const auto& c : r.fit) j["fit"].push_back(curve_json(c));
+  j["bend"] = json::array();
+  for (const auto& b : r.bend)
+    j["bend"].push_back({{"label", b.label}, {"angle_deg", b.angle_deg},
+                         {"measured_overhang_mm", b.measured_overhang_mm},
+                         {"chord_angle_deg", b.chord_angle_deg},
+                         {"overhang_mm", b.overhang_mm}});
+  j["validation"] = json::array();
+  for (const auto& c : r.validation) j["validation"].push_back(curve_json(c));
+  json timing = json::object();
+  for (const auto& [k, v] : r.timing_s) timing[k] = v;
+  j["timing_s"] = timing;
+  j["notes"] = r.notes;
+  return j;
+}
+
+std::string report_markdown(const FitReport& r) {
+  std::ostringstream md;
+  md << "# twill fit: " << r.dataset << "\n\n";
+  md << "Dataset folder: `" << r.folder << "`. Parameters: `params.yaml`; everything below is also in "
+        "`report.json`; the resolved config is `config.yaml`.\n\n";
+  md << "## Fit errors (paper Table 3)\n\nAverage relative error Σ|p̂ − p̆| / Σ|p̆| (model.md §8) at "
+        "the finest resolution.\n\n| test | angle | run | degree | error |\n|---|---|---|---|---|\n";
+  for (const auto& c : r.fit)
+    md << fmt::format("| {} | {:g}° | {} | {} | {:.2f} % |\n", c.label, c.angle_deg, c.run, c.degree,
+                      100 * c.avg_rel_error);
+  md << "\n## Drape (paper Table 4)\n\nChord angle simulated at the measured overhang (41.5° measured), "
+        "and the simulated overhang at 41.5°.\n\n| test | angle | measured overhang | chord angle | "
+        "overhang at 41.5° |\n|---|---|---|---|---|\n";
+  for (const auto& b : r.bend)
+    md << fmt::format("| {} | {:g}° | {:.2f} mm | {:.2f}° | {} |\n", b.label, b.angle_deg,
+                      b.measured_overhang_mm, b.chord_angle_deg,
+                      b.overhang_mm > 0 ? fmt::format("{:.2f} mm", b.overhang_mm) : "—");
+  md << "\n## Validation (paper Table 5)\n\nPer validation run: the angle offset Δθ, the error with "
+        "it, and without it.\n\n| test | angle | run | Δθ | error | error at Δθ = 0 |\n|---|---|---|---|---|---|\n";
+  for (const auto& c : r.validation)
+    md << fmt::format("| {} | {:g}° | {} | {:+.2f}° | {:.2f} % | {:.2f} % |\n", c.label, c.angle_deg, c.run,
+                      c.delta_theta_deg, 100 * c.avg_rel_error, 100 * c.avg_rel_error_without_offset);
+  md << "\n## Stages\n\n| stage | resolution | degree | error | optimiser | status | iterations | "
+        "solves | time |\n|---|---|---|---|---|---|---|---|---|\n";
+  for (const auto& s : r.stages)
+    md << fmt::format("| {} | {} | {} | {:.2f} % | {} | {} | {} | {} | {:.1f} s |\n", s.stage, s.resolution,
+                      s.degree, 100 * s.avg_rel_error, s.optimizer, s.status, s.iterations,
+                      s.equilibrium_solves, s.wall_time_s);
+  md << "\n## Initial guess (paper §5.3)\n\n| run | uniform-strain fit error | uniform strain vs full "
+        "solve |\n|---|---|---|\n";
+  for (const auto& g : r.initial_guess)
+    md << fmt::format("| {} | {:.2f} % | {:.2f} % |\n", g.label, 100 * g.avg_rel_error_uniform,
+                      100 * g.avg_rel_difference_full);
+  md << "\n## Parameters\n\n```yaml\n" << params_to_yaml(r.parameters) << "```\n";
+  md << "\n## Timing\n\n| stage | time |\n|---|---|\n";
+  for (const auto& [k, v] : r.timing_s) md << fmt::format("| {} | {:.1f} s |\n", k, v);
+  md << "\n## Notes\n\n";
+  for (const auto& n : r.notes) md << "- " << n << "\n";
+  md << "\n## Figures\n\n![force-elongation](fig2_force_elongation.png)\n\n"
+        "![error vs degree](fig3_error_vs_degree.png)\n\n![validation](fig4_validation_error.png)\n";
+  return md.str();
+}
+
+void write_text(const fs::path& path, const std::string& text) {
+  std::ofstream out(path);
+  out << text;
+  if (!out) throw std::runtime_error("cannot write " + path.string());
+}
+
+}  // namespace
+
+void write_fit_outputs(const FitReport& report, const Options& config, const std::string& dir) {
+  const fs::path d(dir);
+  fs::create_directories(d);
+  write_params_file(report.parameters, (d / "params.yaml").string());
+  write_config_file(config, (d / "config.yaml").string());
+  write_text(d / "report.json", report_json(report, config).dump(2) + "\n");
+  write_text(d / "report.md", report_markdown(report));
+}
+
+}  // namespace twill
