@@ -207,15 +207,18 @@ void kirchhoff_love_face_parameter_jacobian(const MaterialLaw& law, double thick
     StrainParameterJacobian& column = dW[static_cast<std::size_t>(p)];
     // The strains do not depend on k; with FaceMean the (11, 22) rows come from the mean.
     if (face.fibre_strain == FibreStrain::FaceMean) column.topRows<2>() = w.omega * mean_weight;
-    StrainParameterJacobian dE_ds(6, num_k);
-    dE_ds.topRows<3>().noalias() = ref.T.transpose() * column.topRows<3>();
-    dE_ds.bottomRows<3>().noalias() = ref.T.transpose() * column.bottomRows<3>();
-    const JetParameterJacobian jet = w.J.transpose() * dE_ds;
+    // Small products: lazy (Eigen's GEMM path would pack the operands on every call).
+    thread_local StrainParameterJacobian dE_ds;
+    thread_local JetParameterJacobian jet;
+    dE_ds.resize(6, num_k);
+    dE_ds.topRows<3>().noalias() = ref.T.transpose().lazyProduct(column.topRows<3>());
+    dE_ds.bottomRows<3>().noalias() = ref.T.transpose().lazyProduct(column.bottomRows<3>());
+    jet.noalias() = w.J.transpose().lazyProduct(dE_ds);
     for (int c = 0; c < 3; ++c) {
       // Rows 3r + c of the jet Jacobian: component c of jet row r.
       const Eigen::Map<const Eigen::MatrixXd, 0, Eigen::Stride<Eigen::Dynamic, 3>> Jc(
           jet.data() + c, 5, num_k, Eigen::Stride<Eigen::Dynamic, 3>(15, 3));
-      dgradient_dk->middleRows<16>(16 * c).noalias() += face.jet_basis[p] * Jc;
+      dgradient_dk->middleRows<16>(16 * c).noalias() += face.jet_basis[p].lazyProduct(Jc);
     }
   }
 }
