@@ -72,11 +72,9 @@ FaceParameterJacobian& parameter_workspace() {
   return local;
 }
 
-/// Surface jet y = (a1, a2, x,11, x,22, x,12) from a basis table and face control points.
+/// Surface jet of a basis table's point: the face kernel's own function (see face_jet).
 SurfaceJet jet_of(const BasisTable& table, const FaceCoordinates& X) {
-  SurfaceJet y;
-  Eigen::Map<Eigen::Matrix<double, 5, 3, Eigen::RowMajor>>(y.data()) = table.bottomRows<5>() * X;
-  return y;
+  return face_jet(table.bottomRows<5>().transpose(), X);
 }
 
 }  // namespace

@@ -64,7 +64,7 @@ void prepare_points(const FaceQuadrature& face, const FaceCoordinates& X, bool d
   for (int p = 0; p < n; ++p) {
     PointWork& w = work[static_cast<std::size_t>(p)];
     const ReferencePoint& ref = face.reference[p];
-    Eigen::Map<JetRows>(w.y.data()) = face.jet_basis[p].transpose().lazyProduct(X);
+    w.y = face_jet(face.jet_basis[p], X);
     const Vector6 s = shell_strains(w.y, ref.A, ref.B, derivatives ? &w.J : nullptr);
     w.e << ref.T * s.head<3>(), ref.T * s.tail<3>();
     w.omega = ref.weight_area / area;
@@ -82,6 +82,12 @@ Vector6 covariant_weights(const Matrix3d& T, const Vector6& gamma) {
 }
 
 }  // namespace
+
+SurfaceJet face_jet(const JetBasis& Dt, const FaceCoordinates& X) {
+  SurfaceJet y;
+  Eigen::Map<JetRows>(y.data()) = Dt.transpose().lazyProduct(X);
+  return y;
+}
 
 double kirchhoff_love_face(const MaterialLaw& law, double thickness_m,
                            const GaussLegendreRule& rule, const FaceQuadrature& face,

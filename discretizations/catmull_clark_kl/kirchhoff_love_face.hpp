@@ -40,6 +40,11 @@ using FaceParameterJacobian = Eigen::Matrix<double, 48, Eigen::Dynamic>;
 
 constexpr int face_block_index(int a, int b) { return a == 0 ? b : (a == 1 ? 2 + b : 5); }
 
+/// Surface jet y = (a1, a2, x,11, x,22, x,12) of a point from its Dᵀ and the face's control
+/// points. The rest data are computed by this same function, so that the rest state has
+/// ε = κ = 0 bit for bit.
+SurfaceJet face_jet(const JetBasis& Dt, const FaceCoordinates& X);
+
 /// What a face needs besides its control points; the pointers address points_per_face entries.
 struct FaceQuadrature {
   int points_per_face = 0;
