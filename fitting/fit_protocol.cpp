@@ -27,7 +27,9 @@ OptionSchema fit_config_schema() {
   s.add_component("optimizer", registry_category::kOptimizer, "bfgs",
                   "minimiser of the fit objective (paper Eq. 3) in every stage");
   OptionSchema& stop = s.add_section("stopping", "per-stage limits, applied to the optimiser's common options");
-  stop.add_int("max_iterations", 60, "iterations per stage and resolution").at_least(1);
+  stop.add_int("max_iterations", 60, "iterations per stage at the coarsest level").at_least(1);
+  stop.add_int("refine_max_iterations", 15,
+               "iterations per stage at each finer level (it starts at the coarser optimum)").at_least(1);
   stop.add_int("max_evaluations", 150, "objective evaluations per stage and resolution").at_least(1);
   stop.add_double("gradient_tolerance", 1e-7, "projected-gradient inf-norm in scaled unknowns").at_least(0.0);
   stop.add_double("function_tolerance", 1e-7, "relative change of the objective per iteration").at_least(0.0);
@@ -342,7 +344,8 @@ class Protocol {
     return mean(e);
   }
 
-  std::unique_ptr<Optimizer> make_stage_optimizer(const std::string& name_override = "") const {
+  std::unique_ptr<Optimizer> make_stage_optimizer(const std::string& name_override = "",
+                                                  bool refine = false) const {
     ComponentChoice choice = config_.get_component("optimizer");
     if (!name_override.empty() && name_override != choice.name) {
       choice.name = name_override;
@@ -351,7 +354,7 @@ class Protocol {
       choice.options = default_options(category->at(name_override).options, nullptr);
     }
     const Options& stop = config_.get_section("stopping");
-    choice.options.set("max_iterations", stop.get_int("max_iterations"));
+    choice.options.set("max_iterations", stop.get_int(refine ? "refine_max_iterations" : "max_iterations"));
     choice.options.set("max_evaluations", stop.get_int("max_evaluations"));
     choice.options.set("gradient_tolerance", stop.get_double("gradient_tolerance"));
     choice.options.set("function_tolerance", stop.get_double("function_tolerance"));
@@ -401,7 +404,7 @@ class Protocol {
                          resolution, degree, it.iteration, it.value, it.gradient_norm,
                          objective.equilibrium_solves()));
     });
-    std::unique_ptr<Optimizer> optimizer = make_stage_optimizer();
+    std::unique_ptr<Optimizer> optimizer = make_stage_optimizer("", level > 0);
     const OptimizerResult r = optimizer->minimize(objective, map.initial_x());
     StageResult out;
     if (!std::isfinite(r.summary.final_value)) {
