@@ -320,6 +320,113 @@ HingeClasses classify_hinges(const StripTriangulation& tri) {
                                                    : Eigen::Matrix3d(patch_sum[c] / patch_count[c]);
     out.response.push_back(density * mean);
     out.hinges_per_cell.push_back(central_count[c] / 4);
+    out.density.push_back(density);
+  }
+  return out;
+}
+
+namespace {
+
+/// Warp d1 and weft d2 of a strip at angle_deg (core/discretization.hpp).
+std::array<Eigen::Vector2d, 2> material_frame(double angle_deg) {
+  const double t = angle_deg * std::numbers::pi / 180.0;
+  return {Eigen::Vector2d(-std::sin(t), std::cos(t)), Eigen::Vector2d(std::cos(t), std::sin(t))};
+}
+
+/// (a11, a12 + G12, a22) and the map of ∂/∂P to ∂/∂(a11, a12, a22, G12, τ) columns.
+Eigen::Vector3d plate_stiffnesses(const MaterialParameters& p) {
+  return {p.a11_Pa, p.a12_Pa + p.G12_Pa, p.a22_Pa};
+}
+
+Eigen::Matrix<double, 1, 5> to_parameter_columns(const Eigen::Vector3d& d_dP, double d_dtau) {
+  Eigen::Matrix<double, 1, 5> out;
+  out << d_dP[0], d_dP[1], d_dP[2], d_dP[1], d_dtau;
+  return out;
+}
+
+}  // namespace
+
+Eigen::Vector3d directional_weights(const Eigen::Vector2d& n, double angle_deg) {
+  const auto d = material_frame(angle_deg);
+  const double n1 = n.dot(d[0]), n2 = n.dot(d[1]);
+  return {n1 * n1 * n1 * n1, 2.0 * n1 * n1 * n2 * n2, n2 * n2 * n2 * n2};
+}
+
+DirectionalHingeModel::DirectionalHingeModel(const StripTriangulation& tri,
+                                             const HingeClasses& classes, double angle_deg) {
+  const size_t nc = classes.response.size();
+  // Per class and stiffness component m: S_cm = n_c/A_cell · mean_{e∈c} g_e w_em ℓ_e ℓ_eᵀ
+  // over the mesh's own hinges (the homogenisation of §4.3 with the per-hinge weight).
+  std::vector<std::array<Eigen::Matrix3d, 3>> sum(
+      nc, {Eigen::Matrix3d::Zero(), Eigen::Matrix3d::Zero(), Eigen::Matrix3d::Zero()});
+  std::vector<int> count(nc, 0);
+  weights_.resize(static_cast<Eigen::Index>(tri.hinges.size()), 3);
+  for (size_t h = 0; h < tri.hinges.size(); ++h) {
+    const Hinge& hinge = tri.hinges[h];
+    const auto X = [&](int k) {
+      return Eigen::Vector2d(tri.reference_xy.row(hinge.v[static_cast<size_t>(k)]));
+    };
+    const Eigen::Vector2d t = (X(1) - X(0)).normalized();
+    const Eigen::Vector3d w = directional_weights(Eigen::Vector2d(-t.y(), t.x()), angle_deg);
+    weights_.row(static_cast<Eigen::Index>(h)) = w.transpose();
+    const HingeReference r = hinge_reference(X(0), X(1), X(2), X(3));
+    const auto c = static_cast<size_t>(classes.class_of_hinge[h]);
+    for (int m = 0; m < 3; ++m) sum[c][static_cast<size_t>(m)] += r.weight * w[m] * r.mode * r.mode.transpose();
+    ++count[c];
+  }
+  const auto d = material_frame(angle_deg);
+  const double s = 1.0 / std::sqrt(2.0);
+  const std::array<Eigen::Vector2d, 4> u = {d[0], d[1], s * (d[0] + d[1]), s * (d[0] - d[1])};
+  response_.setZero();
+  for (int j = 0; j < kCalibrationCylinders; ++j) {
+    const Eigen::Vector2d& uj = u[static_cast<size_t>(j)];
+    // Unit cylinder u⊗u: vec(K) = (ux², uy², √2 ux uy); its KL weights are w(u).
+    const Eigen::Vector3d k(uj.x() * uj.x(), uj.y() * uj.y(), std::sqrt(2.0) * uj.x() * uj.y());
+    target_.row(j) = directional_weights(uj, angle_deg).transpose();
+    for (size_t c = 0; c < nc; ++c) {
+      if (count[c] == 0) continue;  // a class absent from a tiny mesh contributes nothing
+      for (int m = 0; m < 3; ++m)
+        response_(j, m) += classes.density[c] / count[c] * k.dot(sum[c][static_cast<size_t>(m)] * k);
+    }
+  }
+}
+
+HingeStiffness DirectionalHingeModel::solve(const MaterialParameters& p) const {
+  const Eigen::Vector3d P = plate_stiffnesses(p);
+  const double tau = p.thickness_m, c = tau * tau * tau / 72.0;  // k⁰_e = D(n_e)/6 = c w_e·P
+  // Hinge / KL energy of cylinder j per unit λ: r_j = (τ³/72 R_j·P)/(τ³/24 s_j·P), free of τ.
+  Eigen::Vector4d r;
+  std::array<Eigen::Vector3d, 4> dr;  // ∂r_j/∂P
+  for (int j = 0; j < kCalibrationCylinders; ++j) {
+    const double a = response_.row(j).dot(P), b = 3.0 * target_.row(j).dot(P);
+    if (!(b > 0.0))
+      throw std::invalid_argument(
+          "directional hinge stiffness: the plate has no positive bending stiffness along a "
+          "calibration cylinder (is a12 + G12 > −√(a11 a22)?)");
+    r[j] = a / b;
+    dr[static_cast<size_t>(j)] = response_.row(j).transpose() / b -
+                                 r[j] * 3.0 * target_.row(j).transpose() / b;
+  }
+  // λ minimises Σ_{j = warp, weft} (λ r_j − 1)²: λ = (r0 + r1)/(r0² + r1²).
+  const double num = r[0] + r[1], den = r[0] * r[0] + r[1] * r[1];
+  if (!(num > 0.0))
+    throw std::invalid_argument(
+        "directional hinge stiffness: no hinge responds to the warp and weft cylinders");
+  HingeStiffness out;
+  out.scale = num / den;
+  const Eigen::Vector3d dlambda =
+      (dr[0] + dr[1]) / den - num / (den * den) * 2.0 * (r[0] * dr[0] + r[1] * dr[1]);
+  out.scale_derivative = to_parameter_columns(dlambda, 0.0);
+  for (int j = 0; j < kCalibrationCylinders; ++j) out.relative_error[j] = out.scale * r[j] - 1.0;
+  const Eigen::Index nh = weights_.rows();
+  out.per_hinge.resize(nh);
+  out.derivative.resize(nh, 5);
+  for (Eigen::Index h = 0; h < nh; ++h) {
+    const Eigen::Vector3d w = weights_.row(h).transpose();
+    const double k0 = c * w.dot(P);
+    out.per_hinge[h] = out.scale * k0;
+    out.derivative.row(h) =
+        to_parameter_columns(c * (w.dot(P) * dlambda + out.scale * w), 3.0 * out.per_hinge[h] / tau);
   }
   return out;
 }

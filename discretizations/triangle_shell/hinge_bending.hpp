@@ -113,6 +113,7 @@ struct HingeClasses {
   std::vector<int> class_of_hinge;        ///< per hinge of the triangulation
   std::vector<Eigen::Matrix3d> response;  ///< S_c per class
   std::vector<int> hinges_per_cell;       ///< n_c: class-c hinges per cell of the pattern
+  std::vector<double> density;            ///< n_c/A_cell: class-c hinges per unit area [1/m²]
 };
 
 /// Classes are the distinct modes (up to sign) of the *unperturbed* pattern (base_xy); the
@@ -121,5 +122,55 @@ struct HingeClasses {
 /// reference mesh, so for the irregular pattern S_c is the homogenised response of the
 /// perturbed hinges (docs/triangle_shell.md §4).
 HingeClasses classify_hinges(const StripTriangulation& triangulation);
+
+/// Per-hinge stiffnesses k_e of the active bending model and their derivatives.
+struct HingeStiffness {
+  Eigen::VectorXd per_hinge;  ///< k_e [J], in triangulation().hinges order
+  /// ∂k_e/∂(a11, a12, a22, G12, τ): #hinges × 5 [J/Pa, J/Pa, J/Pa, J/Pa, J/m].
+  Eigen::Matrix<double, Eigen::Dynamic, 5> derivative;
+  /// Continuum-limit relative error (hinge − KL)/KL per calibration cylinder (warp, weft,
+  /// +45, −45; calibration_cylinder_names()).
+  Eigen::Vector4d relative_error = Eigen::Vector4d::Zero();
+  /// Directional model: the calibration factor λ and ∂λ/∂(a11, a12, a22, G12, τ); 1 and 0
+  /// for the cylinder calibration.
+  double scale = 1.0;
+  Eigen::Matrix<double, 1, 5> scale_derivative = Eigen::Matrix<double, 1, 5>::Zero();
+};
+
+/// Directional plate stiffness for bending with curvature n⊗n (n unit, in-plane):
+/// D(n) = τ³/12 · C(n,n,n,n) = τ³/12 · (a11 ñ1⁴ + 2(a12 + G12) ñ1²ñ2² + a22 ñ2⁴), ñ = (n·d1, n·d2)
+/// [J]. It is twice the KL energy per area of the unit cylinder n⊗n (kirchhoff_love_cylinder_
+/// energy): D(n)/2 = τ³/24 ẽᵀCẽ with ẽ = (ñ1², ñ2², ñ1ñ2). Written as D = τ³/12 · w(n)·P with
+/// P = (a11, a12 + G12, a22) and the weights returned here, w = (ñ1⁴, 2ñ1²ñ2², ñ2⁴).
+Eigen::Vector3d directional_weights(const Eigen::Vector2d& n, double angle_deg);
+
+/// The directional hinge model (docs/triangle_shell.md §4.6): every hinge gets the plate's
+/// bending stiffness across its edge, with Grinspun's weight,
+///     k_e = λ · D(n_e)/6,   W_e = k_e g_e θ_e²,
+/// n_e the in-plane unit normal of the reference edge (the bending direction a fold along the
+/// edge has). D(n)/6 makes a crease along any straight line of hinges cost the KL energy of the
+/// cylinder across it spread over the adjacent triangle heights, so no hinge is softer than the
+/// plate in its own direction (the cylinder calibration leaves the diagonal hinges of aligned
+/// meshes with only a12 + G12, a soft mesh-scale fold mode: §10). λ is one factor per mesh,
+/// the least-squares fit in relative error of the warp and weft cylinders' homogenised hinge
+/// energy to KL: λ = 1 exactly wherever the hinges across the fibres alone carry those
+/// cylinders (alternating, right, left with aligned material). The ±45° cylinders are not
+/// fitted: their error is reported in HingeStiffness::relative_error.
+class DirectionalHingeModel {
+ public:
+  DirectionalHingeModel(const StripTriangulation& triangulation, const HingeClasses& classes,
+                        double angle_deg);
+  HingeStiffness solve(const MaterialParameters& p) const;
+  /// w(n_e) per hinge (#hinges × 3).
+  const Eigen::Matrix<double, Eigen::Dynamic, 3>& hinge_weights() const { return weights_; }
+  /// Homogenised hinge energy per area of each calibration cylinder at unit curvature per unit
+  /// λ, as R_j·P τ³/72 (R: 4 × 3), and the KL targets τ³/24 s_j·P (s: 4 × 3).
+  const Eigen::Matrix<double, 4, 3>& cylinder_response() const { return response_; }
+  const Eigen::Matrix<double, 4, 3>& cylinder_target() const { return target_; }
+
+ private:
+  Eigen::Matrix<double, Eigen::Dynamic, 3> weights_;
+  Eigen::Matrix<double, 4, 3> response_, target_;
+};
 
 }  // namespace twill

@@ -43,6 +43,17 @@ bool includes(StripEnds ends, StripEnd end) {
          (end == StripEnd::End && ends == StripEnds::End);
 }
 
+std::string to_string(HingeModel model) {
+  return model == HingeModel::Cylinders ? "cylinders" : "directional";
+}
+
+HingeModel hinge_model_from_string(const std::string& text) {
+  for (HingeModel m : {HingeModel::Directional, HingeModel::Cylinders})
+    if (to_string(m) == text) return m;
+  throw InputError({"", 0, "hinge_model"},
+                   "unknown hinge model '" + text + "' (known: directional, cylinders)");
+}
+
 std::string TriangleShellOptions::validate() const {
   std::ostringstream os;
   if (!(perturbation >= 0.0 && perturbation < 0.25)) {
@@ -78,6 +89,12 @@ OptionSchema triangle_shell_option_schema() {
                   "ends whose slope clamp is a hinge against the rest plane instead of a rigid "
                   "first cell column (cantilever: start)")
       .choices({"none", "start", "end", "both"});
+  schema
+      .add_string("hinge_model", to_string(d.hinge_model),
+                  "hinge stiffnesses: directional (plate stiffness across each edge, warp and "
+                  "weft cylinders exact) or cylinders (per class, warp/weft/45° exact, soft "
+                  "diagonal folds)")
+      .choices({"directional", "cylinders"});
   return schema;
 }
 
@@ -88,6 +105,7 @@ TriangleShellOptions triangle_shell_options(const Options& resolved) {
   o.seed = static_cast<std::uint64_t>(resolved.get_int("seed"));
   o.threads = static_cast<int>(resolved.get_int("threads"));
   o.clamp_hinges = strip_ends_from_string(resolved.get_string("clamp_hinges"));
+  o.hinge_model = hinge_model_from_string(resolved.get_string("hinge_model"));
   return o;
 }
 
@@ -166,6 +184,7 @@ struct TriangleShell::Impl {
   std::vector<double> hinge_weight;  // g_e per hinge
   HingeClasses classes;
   std::unique_ptr<HingeCalibration> calibration;
+  std::unique_ptr<DirectionalHingeModel> directional;  // hinge_model = directional only
   Eigen::VectorXd vertex_area;  // Σ_{T∋i} Ā_T/3 [m²]
 
   SparseMatrix pattern;  // Hessian sparsity, zero values
@@ -277,6 +296,8 @@ TriangleShell::TriangleShell(const StripSpec& strip, const MaterialParameters& p
     }
   m.classes = classify_hinges(t);
   m.calibration = std::make_unique<HingeCalibration>(m.classes.response, strip.angle_deg);
+  if (options.hinge_model == HingeModel::Directional)
+    m.directional = std::make_unique<DirectionalHingeModel>(t, m.classes, strip.angle_deg);
 
   // Hessian pattern: full 3×3 blocks for every vertex pair of a triangle or a hinge.
   std::vector<Eigen::Triplet<double>> triplets;
@@ -367,7 +388,32 @@ TriangleShell::TriangleShell(const StripSpec& strip, const MaterialParameters& p
   }
 
   law_ = std::make_unique<MaterialLaw>(parameters);
-  stiffness_ = m.calibration->solve(parameters);
+  update_hinge_stiffness();
+}
+
+void TriangleShell::update_hinge_stiffness() {
+  const Impl& m = *impl_;
+  const MaterialParameters& p = law_->parameters();
+  try {
+    if (m.directional) {
+      stiffness_ = HingeClassStiffness{};
+      hinges_ = m.directional->solve(p);
+      return;
+    }
+    stiffness_ = m.calibration->solve(p);
+  } catch (const std::invalid_argument& e) {
+    throw InputError({"", 0, "a12_Pa"}, e.what());
+  }
+  const auto nh = static_cast<Eigen::Index>(m.classes.class_of_hinge.size());
+  hinges_ = HingeStiffness{};
+  hinges_.per_hinge.resize(nh);
+  hinges_.derivative.resize(nh, 5);
+  for (Eigen::Index h = 0; h < nh; ++h) {
+    const int c = m.classes.class_of_hinge[static_cast<size_t>(h)];
+    hinges_.per_hinge[h] = stiffness_.stiffness[c];
+    hinges_.derivative.row(h) = stiffness_.derivative.row(c);
+  }
+  hinges_.relative_error = stiffness_.relative_error;
 }
 
 TriangleShell::~TriangleShell() = default;
@@ -376,11 +422,14 @@ int TriangleShell::num_nodes() const { return impl_->tri.num_vertices(); }
 const StripTriangulation& TriangleShell::triangulation() const { return impl_->tri; }
 const std::vector<int>& TriangleShell::hinge_class() const { return impl_->classes.class_of_hinge; }
 const HingeCalibration& TriangleShell::hinge_calibration() const { return *impl_->calibration; }
+const DirectionalHingeModel* TriangleShell::directional_model() const {
+  return impl_->directional.get();
+}
 
 void TriangleShell::set_parameters(const MaterialParameters& parameters) {
   validate_parameters(parameters);
   law_ = std::make_unique<MaterialLaw>(parameters);
-  stiffness_ = impl_->calibration->solve(parameters);
+  update_hinge_stiffness();
 }
 
 double TriangleShell::energy(const Eigen::VectorXd& q, Eigen::VectorXd* gradient,
@@ -465,7 +514,7 @@ double TriangleShell::energy(const Eigen::VectorXd& q, Eigen::VectorXd* gradient
     const int h = id - nf;
     const auto hu = static_cast<size_t>(h);
     const Hinge& hinge = t.hinges[hu];
-    const double kg = stiffness_.stiffness[m.classes.class_of_hinge[hu]] * m.hinge_weight[hu];
+    const double kg = hinges_.per_hinge[h] * m.hinge_weight[hu];
     Vector12 dtheta;
     Matrix12 d2theta;
     const double theta = dihedral_angle(
@@ -538,7 +587,7 @@ Eigen::VectorXd TriangleShell::hinge_energies(const Eigen::VectorXd& q) const {
     const double theta =
         dihedral_angle(vertex(q, v[0]), vertex(q, v[1]), vertex(q, v[2]), vertex(q, v[3]));
     out[static_cast<Eigen::Index>(h)] =
-        stiffness_.stiffness[m.classes.class_of_hinge[h]] * m.hinge_weight[h] * theta * theta;
+        hinges_.per_hinge[static_cast<Eigen::Index>(h)] * m.hinge_weight[h] * theta * theta;
   }
   return out;
 }
@@ -616,9 +665,9 @@ void TriangleShell::gradient_parameter_jacobian(const Eigen::VectorXd& q,
                        vertex(q, hinge.v[3]), &dtheta, nullptr);
     // ∂(2 k g θ ∇θ)/∂k_param = 2 (∂k/∂param) g θ ∇θ.
     const Vector12 unit = 2.0 * m.hinge_weight[hu] * theta * dtheta;
-    const int c = m.classes.class_of_hinge[hu];
+    const auto he = static_cast<Eigen::Index>(hu);
     for (size_t p = 0; p < bending_columns.size(); ++p) {
-      const double dk = stiffness_.derivative(c, static_cast<Eigen::Index>(p));
+      const double dk = hinges_.derivative(he, static_cast<Eigen::Index>(p));
       if (dk == 0.0) continue;
       for (size_t a = 0; a < 4; ++a)
         J.block<3, 1>(3 * hinge.v[a], bending_columns[p]) +=

@@ -7,16 +7,18 @@
 // positions q = [x0 y0 z0 x1 …] [m] (core/discretization.hpp). Energy [J]:
 //
 //   Ψ(q) = Σ_T τ Ā_T ψ(ẽ_T)                      membrane, constant-strain triangles
-//        + Σ_hinges k_c(e) · |ē|²/Ā_e · θ_e²       bending, flat rest state (θ̄ = 0)
+//        + Σ_hinges k_e · |ē|²/Ā_e · θ_e²          bending, flat rest state (θ̄ = 0)
 //        − Σ_i m_i g·x_i                           gravity, m_i = ρ_A Σ_{T∋i} Ā_T/3
 //
 // ẽ_T = (Ẽ11, Ẽ22, Ẽ12) is the orthotropic Green strain of triangle T
 // (constant_strain_triangle.hpp), θ_e the dihedral angle of interior edge e and Ā_e a third of
-// its two triangles' reference area (Grinspun et al. 2003). The hinge stiffness k_c of each
-// hinge class c ∝ τ³ and is linear in (a11, a22, a12 + G12): it is solved so that a cylinder
-// bent along warp, along weft and at 45° carries the Kirchhoff–Love energy
-// τ³/24 · ẽᵀ ∂²ψ/∂ẽ²(0) ẽ per unit area (hinge_bending.hpp; derivation, exactness per pattern
-// and limits in docs/triangle_shell.md §4–5). The membrane is the paper's law exactly; the
+// its two triangles' reference area (Grinspun et al. 2003). The hinge stiffness k_e ∝ τ³
+// follows from (a11, a22, a12 + G12). Default (HingeModel::Directional): k_e = λ D(n_e)/6, the
+// plate's bending stiffness τ³/12 C(n,n,n,n) across the edge, with one factor λ per mesh so
+// that cylinders bent along warp and weft carry the Kirchhoff–Love energy
+// τ³/24 · ẽᵀ ∂²ψ/∂ẽ²(0) ẽ per unit area; 45° cylinders are then too stiff on aligned meshes.
+// HingeModel::Cylinders: per-class stiffnesses matching warp, weft and 45° exactly, which
+// leaves soft diagonal fold modes (hinge_bending.hpp; docs/triangle_shell.md §4–5, §10). The membrane is the paper's law exactly; the
 // through-thickness integral is split as τψ(ε) + (bending at zero strain), i.e. the
 // second-order expansion of model.md §6 with the bending term evaluated at ε = 0.
 //
@@ -62,6 +64,18 @@ std::string to_string(StripEnds ends);                        // "none", "start"
 StripEnds strip_ends_from_string(const std::string& text);    // throws InputError for others
 bool includes(StripEnds ends, StripEnd end);
 
+/// How the hinge stiffnesses follow from the law (docs/triangle_shell.md §4).
+enum class HingeModel {
+  /// k_e = λ · D(n_e)/6, the plate's bending stiffness across each edge (DirectionalHingeModel):
+  /// warp and weft cylinders match KL, no hinge is softer than the plate in its direction.
+  Directional,
+  /// Per-class stiffnesses solved so that warp, weft and 45° cylinders match KL exactly
+  /// (HingeCalibration); leaves soft diagonal hinges on aligned meshes (§10).
+  Cylinders,
+};
+std::string to_string(HingeModel model);                      // "directional", "cylinders"
+HingeModel hinge_model_from_string(const std::string& text);  // throws InputError for others
+
 struct TriangleShellOptions {
   /// Mesh pattern (strip_triangulation.hpp). Alternating is the default: with the material
   /// axes along the strip (0°/90°) it reproduces cylinders bent in *every* direction, where
@@ -77,13 +91,17 @@ struct TriangleShellOptions {
   /// whether or not the experiment holds that end (pure bending of free sheets must not have
   /// them); the cantilever wants `start`.
   StripEnds clamp_hinges = StripEnds::None;
+  /// Hinge stiffness model. Cylinders by default (the 45° cylinder requirement);
+  /// directional removes the soft diagonal fold of the cantilever but not the mesh-scale
+  /// checkerboard mode that halves the bending stiffness of both (docs/triangle_shell.md §10).
+  HingeModel hinge_model = HingeModel::Cylinders;
 
   /// Empty when valid; otherwise names the field and the violated constraint (Ceres style).
   std::string validate() const;
 };
 
 /// The option schema under which "triangle-shell" is registered (registry.hpp): pattern,
-/// perturbation, seed, threads, clamp_hinges, with the defaults and constraints of
+/// perturbation, seed, threads, clamp_hinges, hinge_model, with the defaults and constraints of
 /// TriangleShellOptions.
 OptionSchema triangle_shell_option_schema();
 /// TriangleShellOptions from options resolved against triangle_shell_option_schema().
@@ -130,7 +148,7 @@ class TriangleShell final : public Discretization {
 
   /// Ψ split into membrane, bending and gravity (diagnostics and tests).
   TriangleShellEnergyParts energy_parts(const Eigen::VectorXd& q) const;
-  /// Bending energy of every hinge k_c g_e θ_e² [J], in triangulation().hinges order.
+  /// Bending energy of every hinge k_e g_e θ_e² [J], in triangulation().hinges order.
   Eigen::VectorXd hinge_energies(const Eigen::VectorXd& q) const;
   /// Bending energy of every clamp hinge k_b g_b θ_b² [J] (empty without clamp hinges).
   Eigen::VectorXd clamp_hinge_energies(const Eigen::VectorXd& q) const;
@@ -142,8 +160,14 @@ class TriangleShell final : public Discretization {
   /// Class of every hinge (same order as triangulation().hinges) and the calibration.
   const std::vector<int>& hinge_class() const;
   const HingeCalibration& hinge_calibration() const;
-  /// Current class stiffnesses (recomputed by set_parameters()).
+  /// Cylinder-calibrated class stiffnesses (recomputed by set_parameters()); solved only for
+  /// hinge_model = cylinders (empty otherwise).
   const HingeClassStiffness& hinge_stiffness() const { return stiffness_; }
+  /// The stiffness of every hinge in the active model, with derivatives and the model's
+  /// continuum error on the four calibration cylinders (recomputed by set_parameters()).
+  const HingeStiffness& hinge_stiffnesses() const { return hinges_; }
+  /// The directional model's data (null for hinge_model = cylinders).
+  const DirectionalHingeModel* directional_model() const;
 
  private:
   struct Impl;
@@ -151,9 +175,12 @@ class TriangleShell final : public Discretization {
   TriangleShellOptions options_;
   std::unique_ptr<MaterialLaw> law_;
   HingeClassStiffness stiffness_;
+  HingeStiffness hinges_;
   Eigen::Vector3d gravity_ = Eigen::Vector3d::Zero();
   Eigen::VectorXd rest_;
   std::unique_ptr<Impl> impl_;
+
+  void update_hinge_stiffness();
 };
 
 }  // namespace twill

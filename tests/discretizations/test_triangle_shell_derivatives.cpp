@@ -173,6 +173,7 @@ struct DerivativeCase {
   TrianglePattern pattern;
   double thickness_m;  // 0.45 mm: membrane-dominated; 5 mm: bending of the same order
   StripEnds clamp_hinges = StripEnds::None;  // both: the clamp hinges' terms are checked too
+  HingeModel hinge_model = HingeModel::Cylinders;
 };
 
 class TriangleShellDerivatives : public ::testing::TestWithParam<DerivativeCase> {
@@ -182,6 +183,7 @@ class TriangleShellDerivatives : public ::testing::TestWithParam<DerivativeCase>
     // calibration takes its least-squares branch for some patterns).
     TriangleShellOptions o = options(GetParam().pattern);
     o.clamp_hinges = GetParam().clamp_hinges;
+    o.hinge_model = GetParam().hinge_model;
     shell_ = std::make_unique<TriangleShell>(strip(4, 6, 30.0), physical_parameters(), o);
     q_ = distorted_configuration(*shell_, 5);
     const StrainSample s = triangle_strains(*shell_, q_);
@@ -295,11 +297,17 @@ INSTANTIATE_TEST_SUITE_P(Patterns, TriangleShellDerivatives,
                                            DerivativeCase{TrianglePattern::Alternating, 5e-3},
                                            DerivativeCase{TrianglePattern::Irregular, 5e-3},
                                            DerivativeCase{TrianglePattern::Alternating, 5e-3, StripEnds::Both},
-                                           DerivativeCase{TrianglePattern::Cross, 0.45e-3, StripEnds::Both}),
+                                           DerivativeCase{TrianglePattern::Cross, 0.45e-3, StripEnds::Both},
+                                           // Directional hinges: λ(a11, a12 + G12, a22) at 30°
+                                           // is a non-trivial least-squares factor.
+                                           DerivativeCase{TrianglePattern::Alternating, 5e-3, StripEnds::Both, HingeModel::Directional},
+                                           DerivativeCase{TrianglePattern::Irregular, 5e-3, StripEnds::None, HingeModel::Directional},
+                                           DerivativeCase{TrianglePattern::Cross, 0.45e-3, StripEnds::None, HingeModel::Directional}),
                          [](const auto& test_info) {
                            return to_string(test_info.param.pattern) +
                                   (test_info.param.thickness_m > 1e-3 ? "_thick" : "_thin") +
-                                  (test_info.param.clamp_hinges == StripEnds::None ? "" : "_clamp_hinges");
+                                  (test_info.param.clamp_hinges == StripEnds::None ? "" : "_clamp_hinges") +
+                                  (test_info.param.hinge_model == HingeModel::Directional ? "_directional" : "");
                          });
 
 // ---------------------------------------------------------------------------------------
