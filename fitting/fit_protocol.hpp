@@ -32,9 +32,10 @@
 //      8×24 → 16×48 → 32×96 for 150 mm);
 //   7. bend (§5.2 step 7): thickness τ from the cantilever chord angles at the measured
 //      overhangs, with a ← a·τ0/τ so the tensile fits are unchanged;
-//   8. validation (§7): per validation run, the angle offset Δθ minimising its error (golden
-//      section on [−`validation.max_offset_deg`, +…] [10°] at the coarsest level), then the
-//      error at the finest level with that offset.
+//   8. validation (§7): per validation run at the finest level, the angle offset Δθ
+//      minimising its error: samples at 0, ±`validation.offset_step_deg` [1°] and the minimiser
+//      of the parabola through them (within ±`validation.max_offset_deg` [10°]); the error
+//      with the best offset and without any are reported.
 #include <functional>
 #include <map>
 #include <string>

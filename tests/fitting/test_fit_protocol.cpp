@@ -38,7 +38,7 @@ Options coarse_config(const std::vector<std::string>& extra = {}) {
   apply_overrides(config, schema, &registry(),
                   {"resolution.coarse_cells_across=4", "resolution.levels=1", "data.max_points=8",
                    "degree.max=2", "bend.cells_across=2", "bend.cells_along=24",
-                   "bend.find_overhang=false", "validation.offset_tolerance_deg=1.0"});
+                   "bend.find_overhang=false", "validation.offset_step_deg=1.0"});
   apply_overrides(config, schema, &registry(), extra);
   return config;
 }
