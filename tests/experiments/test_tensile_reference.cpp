@@ -78,13 +78,18 @@ INSTANTIATE_TEST_SUITE_P(
                       Case{"canvas", "a67.5", 67.5, 0.04}),
     [](const auto& info) { return info.param.material + "_" + (info.param.label == "a22.5" ? "a22_5" : info.param.label == "a67.5" ? "a67_5" : info.param.label); });
 
-// Poplin bias (G12 367x softer than a11) is 6.0 % off at 32x48 (measured 2026-11-22) and
-// converging slowly: a known gap of issue #3, left open there, not hidden by a wider
-// tolerance. Its convergence is asserted below instead.
+// Poplin (G12 = 150 kPa, 367x softer than a11): warp, weft and 22.5° (+3.50 %) meet the
+// issue's targets at 32x48; bias (+6.04 %) and 67.5° (+4.02 %) do not, measured 2026-11-22 and
+// not hidden by a wider tolerance. Both are too stiff and converge at order ~1.1-1.4 (bias
+// +18.5 / +6.04 / +0.34 % at 16x24 / 32x48 / 64x96, worst -1.22 % at 64x96), the signature of
+// fibre-inextensibility locking plus the boundary layer of the C² basis at the clamp corners
+// (docs/catmull_clark_kl.md §7, §12; papers/catmull_clark_bias). Within 4 % needs 64x96, too
+// slow for this suite; their convergence is asserted below instead.
 INSTANTIATE_TEST_SUITE_P(
     Poplin, TensileReference,
-    ::testing::Values(Case{"poplin", "warp", 90, 0.02}, Case{"poplin", "weft", 0, 0.02}),
-    [](const auto& info) { return info.param.material + "_" + info.param.label; });
+    ::testing::Values(Case{"poplin", "warp", 90, 0.02}, Case{"poplin", "weft", 0, 0.02},
+                      Case{"poplin", "a22.5", 22.5, 0.04}),
+    [](const auto& info) { return info.param.material + "_" + (info.param.label == "a22.5" ? "a22_5" : info.param.label); });
 
 class TensileRefinement : public ::testing::TestWithParam<Case> {};
 
@@ -110,8 +115,9 @@ TEST_P(TensileRefinement, ForceConvergesUnderRefinement) {
   EXPECT_GT(order, 0.5);
 }
 
-INSTANTIATE_TEST_SUITE_P(Poplin, TensileRefinement, ::testing::Values(Case{"poplin", "bias", 45, 0.04}),
-                         [](const auto& info) { return info.param.label; });
+INSTANTIATE_TEST_SUITE_P(Poplin, TensileRefinement,
+                         ::testing::Values(Case{"poplin", "bias", 45, 0.04}, Case{"poplin", "a67.5", 67.5, 0.04}),
+                         [](const auto& info) { return info.param.label == "a67.5" ? std::string("a67_5") : info.param.label; });
 
 INSTANTIATE_TEST_SUITE_P(Canvas, TensileRefinement,
                          ::testing::Values(Case{"canvas", "warp", 90, 0.02}, Case{"canvas", "weft", 0, 0.02},
