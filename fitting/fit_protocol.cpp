@@ -47,7 +47,7 @@ OptionSchema fit_config_schema() {
       .range(0.0, 0.9);
   OptionSchema& deg = s.add_section("degree", "automatic degree choice (paper §5.4)");
   deg.add_int("max", 3, "highest curve degree").range(1, 6);
-  deg.add_double("target_error", 0.02, "stop raising below this average relative error (bias: twice it)")
+  deg.add_double("target_error", 0.01, "stop raising below this average relative error (bias: twice it)")
       .greater_than(0.0);
   deg.add_double("min_improvement", 0.2, "stop raising when a raise improved the error by less than this fraction")
       .range(0.0, 1.0);

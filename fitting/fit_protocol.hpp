@@ -19,7 +19,7 @@
 //      `stages.cutoff_fraction` [95 %] of the largest strains seen; bias → G12, η4; Ẽ12max = 95 % of the largest shear seen;
 //      a12 = ½ min(a11, a22) throughout (§5.2);
 //      each stage raises the curve's degree from 1 (§5.4) while the average relative error is
-//      above `degree.target_error` [0.02 warp/weft; bias: ×2] and the last raise improved it by
+//      above `degree.target_error` [0.01 warp/weft; bias: ×2] and the last raise improved it by
 //      at least `degree.min_improvement` [20 %], up to `degree.max` [3]; a higher degree
 //      starts from the lower one;
 //      multiresolution (§5.5.4): the degree search and the cutoffs happen at the coarsest
