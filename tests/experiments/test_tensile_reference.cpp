@@ -84,7 +84,9 @@ INSTANTIATE_TEST_SUITE_P(
 // +18.5 / +6.04 / +0.34 % at 16x24 / 32x48 / 64x96, worst -1.22 % at 64x96), the signature of
 // fibre-inextensibility locking plus the boundary layer of the C² basis at the clamp corners
 // (docs/catmull_clark_kl.md §7, §12; papers/catmull_clark_bias). Within 4 % needs 64x96, too
-// slow for this suite; their convergence is asserted below instead.
+// slow for this suite; their convergence is asserted below instead. Note that the converged
+// bias limit is itself 4.7-5.0 % below the reference above 1 N (bracketed by 128x192 and the
+// face-mean option, agreeing with the triangle shell): the 4 % band is crossed, not approached.
 INSTANTIATE_TEST_SUITE_P(
     Poplin, TensileReference,
     ::testing::Values(Case{"poplin", "warp", 90, 0.02}, Case{"poplin", "weft", 0, 0.02},
