@@ -43,7 +43,7 @@ OptionSchema fit_config_schema() {
   rep.add_int("seed", 1, "seed of the random choice").at_least(0);
   OptionSchema& data = s.add_section("data", "measured points used in the objective");
   data.add_int("max_points", 20, "at most this many points per run, evenly spread").at_least(2);
-  data.add_double("min_force_fraction", 0.02, "drop points below this fraction of the run's peak force")
+  data.add_double("min_force_fraction", 0.005, "drop points below this fraction of the run's peak force (slack, noise)")
       .range(0.0, 0.9);
   OptionSchema& deg = s.add_section("degree", "automatic degree choice (paper §5.4)");
   deg.add_int("max", 3, "highest curve degree").range(1, 6);

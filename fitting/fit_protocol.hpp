@@ -9,7 +9,7 @@
 //
 // The protocol, every choice a config key (fit_config_schema(); defaults in brackets):
 //   0. data: per tensile test the repeats of §6.4 (`repeats.rule` [paper], `repeats.seed`),
-//      the loading branch of each run, points below `data.min_force_fraction` [0.02] of the
+//      the loading branch of each run, points below `data.min_force_fraction` [0.005] of the
 //      run's peak force dropped (relative errors of near-zero forces are noise), at most
 //      `data.max_points` [20] points evenly spread over the rest;
 //   1. initial guess (§5.3): stiffnesses from the small-strain slopes, then the uniform-strain
