@@ -43,7 +43,18 @@ CantileverResult CantileverExperiment::solve(double overhang_mm) const {
   strip.cells_across = setup_.cells_across;
   strip.cells_along = setup_.cells_along;
   strip.angle_deg = setup_.angle_deg;
-  last_discretization_ = factory_(strip, parameters_);
+  // The mesh precompute (patch tables, basis values) depends only on the strip: a solve at the
+  // same overhang (every evaluation of a fit's bend stage) reuses it with the new material.
+  const bool same_mesh = last_discretization_ && [&] {
+    const StripSpec& s = last_discretization_->strip();
+    return s.length_m == strip.length_m && s.width_m == strip.width_m &&
+           s.cells_across == strip.cells_across && s.cells_along == strip.cells_along &&
+           s.angle_deg == strip.angle_deg;
+  }();
+  if (same_mesh)
+    last_discretization_->set_parameters(parameters_);
+  else
+    last_discretization_ = factory_(strip, parameters_);
   Discretization& d = *last_discretization_;
 
   const std::vector<int> fixed = ConstrainedDofs::node_dofs(d.clamped_nodes(StripEnd::Start, true));
