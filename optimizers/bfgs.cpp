@@ -121,16 +121,8 @@ void Bfgs::run(CountedProblem& problem, Eigen::VectorXd x, OptimizerResult& resu
   int spent_on_failed_attempt = 0;  // evaluations of a failed search before the reset
   const LineSearchOptions line_search = options_.line_search();
   for (int k = 1;; ++k) {
-    if (gradient_norm <= options_.gradient_tolerance)
-      return finish(OptimizerStatus::converged,
-                    fmt::format("gradient norm {:.3g} <= gradient_tolerance {:.3g}", gradient_norm,
-                                options_.gradient_tolerance));
-    if (k > options_.max_iterations)
-      return finish(OptimizerStatus::iteration_limit,
-                    fmt::format("max_iterations = {} reached", options_.max_iterations));
-    if (problem.evaluations() >= options_.max_evaluations)
-      return finish(OptimizerStatus::iteration_limit,
-                    fmt::format("max_evaluations = {} reached", options_.max_evaluations));
+    if (const auto stop = options_.iteration_stop(k, gradient_norm, problem.evaluations()))
+      return finish(stop->status, stop->message);
 
     // Variables at a bound that the gradient pushes outward are held for this step.
     std::vector<int> free, held;

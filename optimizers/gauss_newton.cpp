@@ -123,14 +123,8 @@ void GaussNewton::run(CountedProblem& problem, Eigen::VectorXd x0, OptimizerResu
 
   double lambda = options_.initial_lambda, nu = 2.0;
   for (int k = 1;; ++k) {
-    if (gradient_norm <= options_.gradient_tolerance)
-      return finish(OptimizerStatus::converged,
-                    fmt::format("gradient norm {:.3g} <= gradient_tolerance {:.3g}", gradient_norm,
-                                options_.gradient_tolerance));
-    if (k > options_.max_iterations)
-      return finish(OptimizerStatus::iteration_limit,
-                    fmt::format("max_iterations = {} reached", options_.max_iterations));
-    if (out_of_evaluations()) return finish(OptimizerStatus::iteration_limit, evaluation_limit);
+    if (const auto stop = options_.iteration_stop(k, gradient_norm, problem.evaluations()))
+      return finish(stop->status, stop->message);
 
     const Eigen::VectorXd& x = current.x;
     const Eigen::VectorXd& g = current.gradient;

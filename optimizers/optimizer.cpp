@@ -58,6 +58,19 @@ std::string to_string(OptimizerStatus status) {
   return "unknown";
 }
 
+std::optional<OptimizerOptions::Stop> OptimizerOptions::iteration_stop(int k, double gradient_norm,
+                                                                       int evaluations) const {
+  if (gradient_norm <= gradient_tolerance)
+    return Stop{OptimizerStatus::converged,
+                fmt::format("gradient norm {:.3g} <= gradient_tolerance {:.3g}", gradient_norm,
+                            gradient_tolerance)};
+  if (k > max_iterations)
+    return Stop{OptimizerStatus::iteration_limit, fmt::format("max_iterations = {} reached", max_iterations)};
+  if (evaluations >= max_evaluations)
+    return Stop{OptimizerStatus::iteration_limit, fmt::format("max_evaluations = {} reached", max_evaluations)};
+  return std::nullopt;
+}
+
 bool OptimizerOptions::validate(std::string* error) const {
   return check_options(common_option_bindings<OptimizerOptions>(), *this, error);
 }

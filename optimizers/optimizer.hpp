@@ -81,6 +81,15 @@ struct OptimizerOptions {
 
   /// Ceres IsValid style: false with the violated constraint in `error` (may be null).
   bool validate(std::string* error) const;
+
+  /// The stopping tests every iterative method makes at the top of iteration k (≥ 1), in this
+  /// order: gradient tolerance (converged), max_iterations, max_evaluations (iteration_limit).
+  /// nullopt when none applies; otherwise the status and the message for the result.
+  struct Stop {
+    OptimizerStatus status;
+    std::string message;
+  };
+  std::optional<Stop> iteration_stop(int k, double gradient_norm, int evaluations) const;
 };
 
 /// Bindings of the common options, to prepend to each optimiser's own.
