@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <ostream>
 
 #include "core/params_io.hpp"
 #include "discretizations/catmull_clark_kl/register_catmull_clark_kl.hpp"
@@ -23,6 +24,10 @@ struct Case {
   int degree;
   const char* optimizer;
 };
+// Printed by gtest (ctest shows the parameter) instead of the struct's bytes.
+void PrintTo(const Case& c, std::ostream* os) {
+  *os << c.test << " degree " << c.degree << " " << c.optimizer;
+}
 
 class ParameterRecovery : public ::testing::TestWithParam<Case> {};
 
@@ -59,9 +64,9 @@ std::vector<Case> all_cases() {
 }
 
 INSTANTIATE_TEST_SUITE_P(EveryOptimizer, ParameterRecovery, ::testing::ValuesIn(all_cases()),
-                         [](const ::testing::TestParamInfo<Case>& info) {
-                           std::string n = std::string(info.param.test) + "_deg" +
-                                           std::to_string(info.param.degree) + "_" + info.param.optimizer;
+                         [](const ::testing::TestParamInfo<Case>& case_info) {
+                           std::string n = std::string(case_info.param.test) + "_deg" +
+                                           std::to_string(case_info.param.degree) + "_" + case_info.param.optimizer;
                            for (char& ch : n)
                              if (ch == '-') ch = '_';
                            return n;
