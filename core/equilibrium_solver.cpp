@@ -158,9 +158,9 @@ double EquilibriumSolver::automatic_time_step() const {
   return 1.0;
 }
 
-bool EquilibriumSolver::line_search(Eigen::VectorXd* q, double* psi, double slope, double quadratic,
-                                    bool allow_roundoff_acceptance, double* alpha,
-                                    EquilibriumSummary* summary) {
+EquilibriumSolver::SearchResult EquilibriumSolver::line_search(
+    Eigen::VectorXd* q, double* psi, double slope, double quadratic, RoundoffRule rule,
+    double* alpha, EquilibriumSummary* summary) {
   const double psi0 = *psi;
   const double gradient_norm0 = max_abs(g_f_);
   const double roundoff = options_.energy_roundoff * std::fabs(psi0);
@@ -177,13 +177,20 @@ bool EquilibriumSolver::line_search(Eigen::VectorXd* q, double* psi, double slop
     const double phi_trial = psi_trial + quadratic * step * step;
     bool accept = std::isfinite(phi_trial) && phi_trial <= psi0 + options_.armijo_c1 * step * slope;
     if (full && accept && !trial_gradient_.allFinite()) accept = false;
-    if (!accept && full && allow_roundoff_acceptance && std::isfinite(psi_trial) &&
+    if (!accept && full && rule != RoundoffRule::kArmijoOnly && std::isfinite(psi_trial) &&
         psi_trial - psi0 <= roundoff && trial_gradient_.allFinite()) {
       // Ψ cannot resolve the change any more; judge the step by the gradient instead.
       double trial_norm = 0;
       for (int dof : dofs_.free_dofs())
         trial_norm = std::max(trial_norm, std::fabs(trial_gradient_[dof]));
       accept = trial_norm < gradient_norm0;
+      // Neither Ψ nor ‖g_f‖ improves and ‖g_f‖ already passes: nothing left to gain.
+      if (!accept && rule == RoundoffRule::kByGradientOrFloor) return SearchResult::kRoundoffFloor;
+    }
+    if (!accept && !full && q_trial_ == *q) {
+      // The step no longer changes q in double precision: shorter ones cannot either.
+      ++summary->line_search_backtracks;
+      return SearchResult::kFailed;
     }
     if (accept) {
       *q = q_trial_;
@@ -195,12 +202,12 @@ bool EquilibriumSolver::line_search(Eigen::VectorXd* q, double* psi, double slop
       }
       hessian_at_q_ = true;
       *alpha = step;
-      return true;
+      return SearchResult::kAccepted;
     }
     ++summary->line_search_backtracks;
     step *= options_.backtrack_factor;
   }
-  return false;
+  return SearchResult::kFailed;
 }
 
 bool EquilibriumSolver::backward_euler(Eigen::VectorXd* q, double* psi, double* time_step_s,
@@ -238,7 +245,8 @@ bool EquilibriumSolver::backward_euler(Eigen::VectorXd* q, double* psi, double* 
       const double quadratic =
           0.5 * inverse_h2 * (mass_f_.array() * direction_.array().square()).sum();
       double alpha = 0;
-      if (line_search(q, psi, slope, quadratic, false, &alpha, summary)) {
+      if (line_search(q, psi, slope, quadratic, RoundoffRule::kArmijoOnly, &alpha, summary) ==
+          SearchResult::kAccepted) {
         ++summary->backward_euler_steps;
         stepped = true;
         *time_step_s = alpha == 1.0 ? *time_step_s * options_.time_step_growth
@@ -386,6 +394,28 @@ EquilibriumSummary EquilibriumSolver::solve(Eigen::VectorXd* q) {
     if (reason.empty() && !(slope < 0 && std::isfinite(slope))) {
       reason = fmt::format("ascent direction (g_f.d = {:.3e})", slope);
     }
+    const bool small_gradient = gradient_norm <= options_.gradient_tolerance * force;
+    const auto converged_at_floor = [&](const std::string& evidence) {
+      // K_ff at q is factorised; make the Hessian (and K_fc) belong to q as well.
+      if (!hessian_at_q_) {
+        psi = evaluate(*q, &gradient_, &hessian_, &s);
+        hessian_at_q_ = true;
+      }
+      dofs_.extract_free_fixed(hessian_, &k_fc_);
+      factor_at_solution_ = true;
+      s.at_roundoff_floor = true;
+      return finish(EquilibriumStatus::kConverged,
+                    fmt::format("converged at the round-off floor: |g_f|inf = {:.3e} N <= {:.1e} "
+                                "x {:.3e} N; lambda^2 = {:.3e} J > {:.1e} x F x L, but {}",
+                                gradient_norm, options_.gradient_tolerance, force, -slope,
+                                options_.decrement_tolerance, evidence));
+    };
+    if (reason.empty() && small_gradient && window_energy.size() == window_size &&
+        std::fabs(window_energy.front() - psi) <= options_.energy_roundoff * std::fabs(psi)) {
+      return converged_at_floor(fmt::format("{} Newton steps changed Psi by less than {:.1e} x "
+                                            "|Psi|",
+                                            options_.stall_window, options_.energy_roundoff));
+    }
     if (reason.empty() && window_energy.size() == window_size) {
       const double decrease = window_energy.front() - psi;
       if (decrease <= options_.stall_energy_fraction * std::fabs(window_energy.front()) &&
@@ -396,9 +426,18 @@ EquilibriumSummary EquilibriumSolver::solve(Eigen::VectorXd* q) {
     }
     if (reason.empty()) {
       double alpha = 0;
-      if (line_search(q, &psi, slope, 0.0, true, &alpha, &s)) {
+      const SearchResult result =
+          line_search(q, &psi, slope, 0.0,
+                      small_gradient ? RoundoffRule::kByGradientOrFloor : RoundoffRule::kByGradient,
+                      &alpha, &s);
+      if (result == SearchResult::kAccepted) {
         ++s.newton_iterations;
         continue;
+      }
+      if (result == SearchResult::kRoundoffFloor) {
+        return converged_at_floor(fmt::format("the Newton step changes neither Psi (by more "
+                                              "than {:.1e} x |Psi|) nor |g_f|",
+                                              options_.energy_roundoff));
       }
       reason = "line search found no decrease";
     }

@@ -50,6 +50,16 @@
 // load. λ² (the squared Newton decrement, ≈ 2 × the energy still to gain) guards against soft
 // modes where a small gradient still means a large displacement error; L is a length scale
 // (default: diagonal of the rest positions' bounding box), so F·L is an energy scale.
+// Round-off floor. Both tests are relative, but ‖g_f‖ and λ² cannot fall below the round-off
+// of the positions times the stiffness (a strip far from the origin, a soft twist mode with a
+// tiny decrement tolerance). When ‖g_f‖∞ already passes its test, the full Newton step changes
+// Ψ by less than the energy round-off (energy_roundoff·|Ψ|) and it does not lower ‖g_f‖∞
+// either, no further Newton step can change anything measurable: the solve ends converged at
+// the current iterate (status kConverged, `at_roundoff_floor`, the message says so) instead of
+// backtracking to steps that leave q unchanged and then falling back to backward Euler 20
+// times (test ConvergesAtTheRoundoffFloorInsteadOfFallingBack). A backtracked trial that
+// leaves q bitwise unchanged ends the line search at once.
+//
 // Convergence is tested right after K_ff has been factorised at the current iterate, so at a
 // converged solution the factor of K_ff *at the returned q* is available (factorization(),
 // solve_free_free()) for the sensitivity solve of paper Eq. 6: ∂q_f/∂k = −K_ff⁻¹ ∂g_f/∂k.
@@ -135,6 +145,7 @@ struct EquilibriumSummary {
   double gradient_norm_N = 0;     ///< ‖g_f‖∞ at the returned q
   double force_scale_N = 0;       ///< F at the returned q
   double newton_decrement_J = 0;  ///< λ² at the last factorised Newton iterate (0 if none)
+  bool at_roundoff_floor = false;  ///< converged by the round-off floor rule (header comment)
   double length_scale_m = 0;      ///< L used
   double time_step_s = 0;         ///< last backward-Euler h (0 when no fallback was taken)
   double wall_time_s = 0;
@@ -222,11 +233,17 @@ class EquilibriumSolver {
   void prepare_patterns();
   double automatic_time_step() const;
   double force_scale() const;
+  // What a full step whose Ψ change is below the energy round-off is judged by: nothing
+  // (Armijo only), ‖g_f‖∞ (accepted if it falls), or ‖g_f‖∞ with the round-off floor rule
+  // (header comment) when ‖g_f‖∞ already passes its test at q.
+  enum class RoundoffRule { kArmijoOnly, kByGradient, kByGradientOrFloor };
+  enum class SearchResult { kAccepted, kFailed, kRoundoffFloor };
   // Backtracking Armijo search on Φ(α) = Ψ(q + αd) + quadratic·α² from Ψ(q) = psi with
-  // slope g_fᵀd < 0; on success q, psi, gradient_ and hessian_ are at the accepted point and
-  // *alpha is the step length.
-  bool line_search(Eigen::VectorXd* q, double* psi, double slope, double quadratic,
-                   bool allow_roundoff_acceptance, double* alpha, EquilibriumSummary* summary);
+  // slope g_fᵀd < 0; when accepted q, psi, gradient_ and hessian_ are at the accepted point
+  // and *alpha is the step length; at the round-off floor q and psi are unchanged and
+  // hessian_ no longer belongs to q.
+  SearchResult line_search(Eigen::VectorXd* q, double* psi, double slope, double quadratic,
+                           RoundoffRule rule, double* alpha, EquilibriumSummary* summary);
   bool backward_euler(Eigen::VectorXd* q, double* psi, double* time_step_s,
                       EquilibriumSummary* summary);
 

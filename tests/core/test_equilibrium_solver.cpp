@@ -363,6 +363,55 @@ TEST(EquilibriumSolver, StallRuleDoesNotInterruptConvergingNewton) {
   EXPECT_LT((q - exact).lpNorm<Eigen::Infinity>(), 1e-9);
 }
 
+TEST(EquilibriumSolver, ConvergesAtTheRoundoffFloorInsteadOfFallingBack) {
+  // The hanging chain 1 km up: the spring vectors are differences of coordinates near 1e3 m,
+  // so ‖g_f‖ and λ² bottom out at the round-off of the positions (λ² ≈ 6e-24 J here), and
+  // Ψ ≈ 5e3 J resolves nothing below ~1e-12 J. With a decrement tolerance below that floor
+  // the solver used to backtrack to steps that left q unchanged and then take 20 backward-
+  // Euler fallbacks before failing; now it stops converged at the floor (header comment).
+  const double height = 1e3;
+  SpringNetwork network = SpringNetwork::chain(
+      VerticalChain::kSegments, Eigen::Vector3d(0, 0, height),
+      Eigen::Vector3d(0, 0, height - VerticalChain::kSegments * VerticalChain::kRest),
+      VerticalChain::kRest, VerticalChain::kStiffness, VerticalChain::kMass);
+  network.set_gravity(Eigen::Vector3d(0, 0, -kG));
+  Eigen::VectorXd start = network.rest_positions();
+  for (int i = 1; i <= VerticalChain::kSegments; ++i) {
+    start[3 * i + 2] = height + 1.02 * (start[3 * i + 2] - height);
+    start[3 * i] = 1e-3 * std::sin(i);
+  }
+  const Eigen::VectorXd exact =
+      VerticalChain().analytic() + Eigen::VectorXd::NullaryExpr(start.size(), [&](Eigen::Index i) {
+        return i % 3 == 2 ? height : 0.0;
+      });
+
+  EquilibriumOptions tight;
+  tight.decrement_tolerance = 1e-26;  // λ² ≤ ~5e-26 J: below the floor of this chain
+  EquilibriumSolver solver(network, ConstrainedDofs::node_dofs({0}), tight);
+  Eigen::VectorXd q = start;
+  const EquilibriumSummary summary = solver.solve(&q);
+  std::printf("chain at 1 km, decrement tolerance 1e-26: %s, %d Newton iterations, %d fallbacks, "
+              "lambda^2 = %.3e J: %s\n",
+              to_string(summary.status), summary.newton_iterations, summary.fallbacks,
+              summary.newton_decrement_J, summary.message.c_str());
+  ASSERT_TRUE(summary.converged) << summary.message;
+  EXPECT_TRUE(summary.at_roundoff_floor);
+  EXPECT_EQ(summary.fallbacks, 0) << summary.last_fallback_reason;
+  EXPECT_LE(summary.newton_iterations, 10);
+  EXPECT_NE(summary.message.find("round-off floor"), std::string::npos) << summary.message;
+  EXPECT_LT((q - exact).lpNorm<Eigen::Infinity>(), 1e-9);
+  EXPECT_TRUE(solver.has_solution_factorization());
+  EXPECT_EQ(solver.reaction().size(), 3);
+
+  // At the default tolerances the same chain converges by the ordinary tests.
+  EquilibriumSolver ordinary(network, ConstrainedDofs::node_dofs({0}));
+  q = start;
+  const EquilibriumSummary normal = ordinary.solve(&q);
+  ASSERT_TRUE(normal.converged) << normal.message;
+  EXPECT_FALSE(normal.at_roundoff_floor);
+  EXPECT_LT((q - exact).lpNorm<Eigen::Infinity>(), 1e-9);
+}
+
 TEST(EquilibriumSolver, ReportsInsteadOfThrowingWhenTheFailsafeIsDisabled) {
   SlackChain chain;
   EquilibriumOptions options;
