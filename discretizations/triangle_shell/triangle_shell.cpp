@@ -44,14 +44,19 @@ bool includes(StripEnds ends, StripEnd end) {
 }
 
 std::string to_string(HingeModel model) {
-  return model == HingeModel::Cylinders ? "cylinders" : "directional";
+  switch (model) {
+    case HingeModel::ShapeOperator: return "shape-operator";
+    case HingeModel::Directional: return "directional";
+    case HingeModel::Cylinders: return "cylinders";
+  }
+  return "?";
 }
 
 HingeModel hinge_model_from_string(const std::string& text) {
-  for (HingeModel m : {HingeModel::Directional, HingeModel::Cylinders})
+  for (HingeModel m : {HingeModel::ShapeOperator, HingeModel::Directional, HingeModel::Cylinders})
     if (to_string(m) == text) return m;
-  throw InputError({"", 0, "hinge_model"},
-                   "unknown hinge model '" + text + "' (known: directional, cylinders)");
+  throw InputError({"", 0, "hinge_model"}, "unknown hinge model '" + text +
+                                               "' (known: shape-operator, directional, cylinders)");
 }
 
 std::string TriangleShellOptions::validate() const {
@@ -91,10 +96,11 @@ OptionSchema triangle_shell_option_schema() {
       .choices({"none", "start", "end", "both"});
   schema
       .add_string("hinge_model", to_string(d.hinge_model),
-                  "hinge stiffnesses: directional (plate stiffness across each edge, warp and "
-                  "weft cylinders exact) or cylinders (per class, warp/weft/45° exact, soft "
-                  "diagonal folds)")
-      .choices({"directional", "cylinders"});
+                  "bending model: shape-operator (per-triangle curvature from the hinge angles "
+                  "with the law's KL bending energy; exact for every uniform curvature, no "
+                  "mesh-scale modes), or hinge energies: directional (plate stiffness across "
+                  "each edge) or cylinders (per class, warp/weft/45° exact, soft diagonal folds)")
+      .choices({"shape-operator", "directional", "cylinders"});
   return schema;
 }
 
@@ -187,6 +193,21 @@ struct TriangleShell::Impl {
   std::unique_ptr<DirectionalHingeModel> directional;  // hinge_model = directional only
   Eigen::VectorXd vertex_area;  // Σ_{T∋i} Ā_T/3 [m²]
 
+  // hinge_model = shape-operator only (shape_operator_bending.hpp). Angle ids: interior hinges,
+  // then clamp hinges. A face's bending stencil is the union of its sources' vertices.
+  std::unique_ptr<ShapeOperatorBending> shape;
+  ShapeOperatorStiffness shape_stiffness;
+  std::vector<std::vector<int>> stencil;  // per face: stencil vertices
+  // Per face and source: the stencil slot of each of the angle's vertices (the fourth is −1
+  // for a clamp hinge, whose ghost is fixed).
+  std::vector<std::vector<std::array<int, 4>>> source_slots;
+  std::vector<std::vector<int>> stencil_offsets;  // per face: CSC offsets, ((a n + b) 3 + s)
+  std::vector<int> face_source_start;             // per face: start in the flat ∂W/∂φ array
+  std::vector<std::vector<int>> angle_users;      // per angle: entries of that array, in order
+  // Elements of the bending assembly: angle ids, then #angles + face (slab width covers the
+  // widest face stencil).
+  std::vector<std::vector<int>> bending_slabs;
+
   SparseMatrix pattern;  // Hessian sparsity, zero values
   std::vector<std::array<int, kTriangleBlockOffsets>> tri_offsets;
   std::vector<std::array<int, kHingeBlockOffsets>> hinge_offsets;
@@ -204,6 +225,20 @@ struct TriangleShell::Impl {
   int threads = 0;
 
   int num_faces() const { return tri.num_faces(); }
+  int num_angles() const { return shape ? shape->num_angles() : 0; }
+  /// Vertices of angle a (shape operator): the hinge's four, or a clamp hinge's three and −1.
+  std::array<int, 4> angle_vertices(int a) const {
+    if (a < num_hinges()) return tri.hinges[static_cast<size_t>(a)].v;
+    const ClampHinge& c = clamp_hinges[static_cast<size_t>(a - num_hinges())];
+    return {c.v[0], c.v[1], c.v[2], -1};
+  }
+  /// θ of angle a with optional gradient/Hessian (12; a clamp hinge's ghost block is unused).
+  double angle(const Eigen::VectorXd& q, int a, Vector12* gradient, Matrix12* hessian) const;
+  /// Shape-operator bending: W_T of every face into face_energy (#faces); when given, its
+  /// gradient is added to `gradient` and its Hessian to `hessian_values` (the pattern's
+  /// value array).
+  void shape_operator_pass(const Eigen::VectorXd& q, std::vector<double>* face_energy,
+                           Eigen::VectorXd* gradient, double* hessian_values) const;
   int num_hinges() const { return static_cast<int>(tri.hinges.size()); }
   /// Element ids: triangles, then hinges, then clamp hinges.
   int num_elements() const {
@@ -213,14 +248,18 @@ struct TriangleShell::Impl {
   /// Runs f(element) for every element: even slabs (in parallel), then odd slabs.
   template <class F>
   void for_each_by_slab(F&& f) const {
-    const size_t half = (slabs.size() + 1) / 2;
+    for_each_by_slab(slabs, f);
+  }
+  template <class F>
+  void for_each_by_slab(const std::vector<std::vector<int>>& slab_list, F&& f) const {
+    const size_t half = (slab_list.size() + 1) / 2;
     for (size_t parity = 0; parity < 2; ++parity) {
       auto run = [&](size_t k) {
         const size_t s = 2 * k + parity;
-        if (s < slabs.size())
-          for (int e : slabs[s]) f(e);
+        if (s < slab_list.size())
+          for (int e : slab_list[s]) f(e);
       };
-      if (threads == 1 || slabs.size() < 4) {
+      if (threads == 1 || slab_list.size() < 4) {
         for (size_t k = 0; k < half; ++k) run(k);
         continue;
       }
@@ -232,7 +271,50 @@ struct TriangleShell::Impl {
       });
     }
   }
+
+  /// Runs f(i) for i in [0, n), in parallel when worthwhile; f must write only its own slots.
+  template <class F>
+  void for_each_index(int n, F&& f) const {
+    if (threads == 1 || static_cast<size_t>(n) < kParallelMinimum) {
+      for (int i = 0; i < n; ++i) f(i);
+      return;
+    }
+    arena.execute([&] {
+      tbb::parallel_for(tbb::blocked_range<int>(0, n, 64), [&](const tbb::blocked_range<int>& r) {
+        for (int i = r.begin(); i != r.end(); ++i) f(i);
+      });
+    });
+  }
 };
+
+namespace {
+
+// s_m = E φ of one face (docs §4.7), with φ = −θ over the face's angle sources.
+Eigen::VectorXd measured_rotations(const ShapeOperatorBending::Face& face,
+                                   const std::vector<double>& theta) {
+  Eigen::VectorXd phi(static_cast<Eigen::Index>(face.sources.size()));
+  for (size_t j = 0; j < face.sources.size(); ++j)
+    phi[static_cast<Eigen::Index>(j)] = -theta[static_cast<size_t>(face.sources[j])];
+  return face.edge_map * phi;
+}
+
+/// Slabs of cell columns for elements given by their vertex-column range [first, last]: an
+/// element belongs to the slab of its first column, and every slab is at least as wide as the
+/// widest element's span (and kMinSlabColumns), so slabs of equal parity share no vertex.
+std::vector<std::vector<int>> column_slabs(int columns,
+                                           const std::vector<std::pair<int, int>>& range) {
+  int span = 0;
+  for (const auto& [first, last] : range) span = std::max(span, last - first);
+  const int num_slabs =
+      std::clamp(columns / std::max(kMinSlabColumns, span), 1, kMaxSlabs);
+  std::vector<std::vector<int>> out(static_cast<size_t>(num_slabs));
+  for (size_t e = 0; e < range.size(); ++e)
+    out[static_cast<size_t>(std::min(range[e].first * num_slabs / columns, num_slabs - 1))]
+        .push_back(static_cast<int>(e));
+  return out;
+}
+
+}  // namespace
 
 TriangleShell::TriangleShell(const StripSpec& strip, const MaterialParameters& parameters,
                              const TriangleShellOptions& options)
@@ -298,20 +380,57 @@ TriangleShell::TriangleShell(const StripSpec& strip, const MaterialParameters& p
   m.calibration = std::make_unique<HingeCalibration>(m.classes.response, strip.angle_deg);
   if (options.hinge_model == HingeModel::Directional)
     m.directional = std::make_unique<DirectionalHingeModel>(t, m.classes, strip.angle_deg);
+  if (options.hinge_model == HingeModel::ShapeOperator) {
+    std::vector<ClampEdge> clamp_edges;
+    for (const ClampHinge& c : m.clamp_hinges) clamp_edges.push_back({c.face, c.local[0]});
+    m.shape = std::make_unique<ShapeOperatorBending>(t, clamp_edges, strip.angle_deg);
+    const auto& faces = m.shape->faces();
+    m.stencil.resize(faces.size());
+    m.source_slots.resize(faces.size());
+    m.face_source_start.resize(faces.size());
+    m.angle_users.assign(static_cast<size_t>(m.num_angles()), {});
+    int flat = 0;
+    for (size_t f = 0; f < faces.size(); ++f) {
+      std::vector<int>& st = m.stencil[f];
+      for (int a : faces[f].sources)
+        for (int v : m.angle_vertices(a))
+          if (v >= 0 && std::find(st.begin(), st.end(), v) == st.end()) st.push_back(v);
+      std::sort(st.begin(), st.end());
+      m.face_source_start[f] = flat;
+      for (int a : faces[f].sources) {
+        std::array<int, 4> slots{-1, -1, -1, -1};
+        const std::array<int, 4> av = m.angle_vertices(a);
+        for (size_t i = 0; i < 4; ++i)
+          if (av[i] >= 0)
+            slots[i] = static_cast<int>(std::lower_bound(st.begin(), st.end(), av[i]) - st.begin());
+        m.source_slots[f].push_back(slots);
+        m.angle_users[static_cast<size_t>(a)].push_back(flat++);
+      }
+    }
+  }
 
-  // Hessian pattern: full 3×3 blocks for every vertex pair of a triangle or a hinge.
-  std::vector<Eigen::Triplet<double>> triplets;
+  // Hessian pattern: full 3×3 blocks for every vertex pair of a triangle, a hinge or a face's
+  // bending stencil. Pairs are deduplicated first (face stencils overlap heavily).
+  std::vector<long long> pairs;
   auto add_blocks = [&](const int* v, int n) {
     for (int a = 0; a < n; ++a)
-      for (int b = 0; b < n; ++b)
-        for (int r = 0; r < 3; ++r)
-          for (int s = 0; s < 3; ++s) triplets.emplace_back(3 * v[a] + r, 3 * v[b] + s, 0.0);
+      for (int b = 0; b < n; ++b) pairs.push_back(static_cast<long long>(v[a]) * nv + v[b]);
   };
   for (int f = 0; f < t.num_faces(); ++f) {
     const std::array<int, 3> v = {t.faces(f, 0), t.faces(f, 1), t.faces(f, 2)};
     add_blocks(v.data(), 3);
   }
   for (const Hinge& h : t.hinges) add_blocks(h.v.data(), 4);
+  for (const std::vector<int>& st : m.stencil) add_blocks(st.data(), static_cast<int>(st.size()));
+  std::sort(pairs.begin(), pairs.end());
+  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+  std::vector<Eigen::Triplet<double>> triplets;
+  triplets.reserve(9 * pairs.size());
+  for (const long long pair : pairs) {
+    const auto va = static_cast<int>(pair / nv), vb = static_cast<int>(pair % nv);
+    for (int r = 0; r < 3; ++r)
+      for (int s = 0; s < 3; ++s) triplets.emplace_back(3 * va + r, 3 * vb + s, 0.0);
+  }
   m.pattern.resize(3 * nv, 3 * nv);
   m.pattern.setFromTriplets(triplets.begin(), triplets.end());
   m.pattern.makeCompressed();
@@ -340,6 +459,35 @@ TriangleShell::TriangleShell(const StripSpec& strip, const MaterialParameters& p
         for (int s = 0; s < 3; ++s)
           m.hinge_offsets[h][(a * 4 + b) * 3 + static_cast<size_t>(s)] =
               offset(t.hinges[h].v[a], t.hinges[h].v[b], s);
+
+  m.stencil_offsets.resize(m.stencil.size());
+  for (size_t f = 0; f < m.stencil.size(); ++f) {
+    const std::vector<int>& st = m.stencil[f];
+    const size_t n = st.size();
+    m.stencil_offsets[f].resize(n * n * 3);
+    for (size_t a = 0; a < n; ++a)
+      for (size_t b = 0; b < n; ++b)
+        for (int s = 0; s < 3; ++s)
+          m.stencil_offsets[f][(a * n + b) * 3 + static_cast<size_t>(s)] = offset(st[a], st[b], s);
+  }
+  if (m.shape) {
+    // Bending assembly elements: angles (a hinge spans ≤ 2 columns), then faces (stencils up
+    // to 5 columns on the regular patterns); slabs as wide as the widest.
+    std::vector<std::pair<int, int>> range;
+    auto columns_of = [&](const auto& vertices) {
+      std::pair<int, int> r{t.cells_along, 0};
+      for (int v : vertices)
+        if (v >= 0) {
+          const int c = t.half_column[static_cast<size_t>(v)] / 2;
+          r.first = std::min(r.first, c);
+          r.second = std::max(r.second, c);
+        }
+      return r;
+    };
+    for (int a = 0; a < m.num_angles(); ++a) range.push_back(columns_of(m.angle_vertices(a)));
+    for (const std::vector<int>& st : m.stencil) range.push_back(columns_of(st));
+    m.bending_slabs = column_slabs(t.cells_along, range);
+  }
 
   // Slabs: an element belongs to the slab of its leftmost vertex column.
   {
@@ -392,9 +540,19 @@ TriangleShell::TriangleShell(const StripSpec& strip, const MaterialParameters& p
 }
 
 void TriangleShell::update_hinge_stiffness() {
-  const Impl& m = *impl_;
+  Impl& m = *impl_;
   const MaterialParameters& p = law_->parameters();
   try {
+    if (m.shape) {
+      m.shape_stiffness = m.shape->solve(p);
+      // No hinge energies; the shape operator is exact for the four calibration cylinders in
+      // the continuum limit (relative_error = 0).
+      stiffness_ = HingeClassStiffness{};
+      hinges_ = HingeStiffness{};
+      hinges_.per_hinge = Eigen::VectorXd::Zero(m.num_hinges());
+      hinges_.derivative = Eigen::Matrix<double, Eigen::Dynamic, 5>::Zero(m.num_hinges(), 5);
+      return;
+    }
     if (m.directional) {
       stiffness_ = HingeClassStiffness{};
       hinges_ = m.directional->solve(p);
@@ -424,6 +582,10 @@ const std::vector<int>& TriangleShell::hinge_class() const { return impl_->class
 const HingeCalibration& TriangleShell::hinge_calibration() const { return *impl_->calibration; }
 const DirectionalHingeModel* TriangleShell::directional_model() const {
   return impl_->directional.get();
+}
+const ShapeOperatorBending* TriangleShell::shape_operator() const { return impl_->shape.get(); }
+const ShapeOperatorStiffness& TriangleShell::shape_operator_stiffness() const {
+  return impl_->shape_stiffness;
 }
 
 void TriangleShell::set_parameters(const MaterialParameters& parameters) {
@@ -482,6 +644,7 @@ double TriangleShell::energy(const Eigen::VectorXd& q, Eigen::VectorXd* gradient
       }
       return;
     }
+    if (m.shape) return;  // bending: shape_operator_pass below
     if (id >= nf + nh) {
       // Clamp hinge: the ghost apex is fixed, so only the 9×9 block of the real triangle's
       // vertices enters, and it lands on that triangle's blocks of the pattern.
@@ -551,9 +714,13 @@ double TriangleShell::energy(const Eigen::VectorXd& q, Eigen::VectorXd* gradient
     });
   }
 
+  std::vector<double> face_energy;
+  if (m.shape) m.shape_operator_pass(q, &face_energy, gradient, values);
+
   // Summed in element order: the same value for every thread count.
   double total = 0.0;
   for (double e : element_energy) total += e;
+  for (double e : face_energy) total += e;
   for (int v = 0; v < t.num_vertices(); ++v) {
     const double mass = rho * m.vertex_area[v];
     total -= mass * gravity_.dot(vertex(q, v));
@@ -571,7 +738,8 @@ TriangleShellEnergyParts TriangleShell::energy_parts(const Eigen::VectorXd& q) c
     parts.membrane +=
         cst_energy(*law_, tau, m.cst[static_cast<size_t>(f)], vertex(q, t.faces(f, 0)),
                    vertex(q, t.faces(f, 1)), vertex(q, t.faces(f, 2)));
-  parts.bending = hinge_energies(q).sum() + clamp_hinge_energies(q).sum();
+  parts.bending =
+      hinge_energies(q).sum() + clamp_hinge_energies(q).sum() + face_bending_energies(q).sum();
   for (int v = 0; v < t.num_vertices(); ++v)
     parts.gravity -=
         law_->parameters().density_kg_m2 * m.vertex_area[v] * gravity_.dot(vertex(q, v));
@@ -594,6 +762,7 @@ Eigen::VectorXd TriangleShell::hinge_energies(const Eigen::VectorXd& q) const {
 
 Eigen::VectorXd TriangleShell::clamp_hinge_energies(const Eigen::VectorXd& q) const {
   const Impl& m = *impl_;
+  if (m.shape) return Eigen::VectorXd::Zero(static_cast<Eigen::Index>(m.clamp_hinges.size()));
   const double k = clamp_hinge_stiffness();
   Eigen::VectorXd out(static_cast<Eigen::Index>(m.clamp_hinges.size()));
   for (size_t i = 0; i < m.clamp_hinges.size(); ++i) {
@@ -603,6 +772,140 @@ Eigen::VectorXd TriangleShell::clamp_hinge_energies(const Eigen::VectorXd& q) co
     out[static_cast<Eigen::Index>(i)] = k * c.weight * theta * theta;
   }
   return out;
+}
+
+Eigen::VectorXd TriangleShell::face_bending_energies(const Eigen::VectorXd& q) const {
+  const Impl& m = *impl_;
+  if (!m.shape) return Eigen::VectorXd::Zero(m.num_faces());
+  std::vector<double> energy;
+  m.shape_operator_pass(q, &energy, nullptr, nullptr);
+  return Eigen::Map<const Eigen::VectorXd>(energy.data(), static_cast<Eigen::Index>(energy.size()));
+}
+
+Eigen::Matrix<double, Eigen::Dynamic, 3> TriangleShell::face_curvatures(
+    const Eigen::VectorXd& q) const {
+  const Impl& m = *impl_;
+  if (!m.shape)
+    throw std::logic_error("face_curvatures: only the shape-operator bending model has them");
+  Eigen::VectorXd phi(m.num_angles());
+  for (int a = 0; a < m.num_angles(); ++a) phi[a] = -m.angle(q, a, nullptr, nullptr);
+  return m.shape->curvatures(phi, m.shape_stiffness);
+}
+
+double TriangleShell::Impl::angle(const Eigen::VectorXd& q, int a, Vector12* gradient,
+                                  Matrix12* hessian) const {
+  if (a < num_hinges()) {
+    const auto& v = tri.hinges[static_cast<size_t>(a)].v;
+    return dihedral_angle(vertex(q, v[0]), vertex(q, v[1]), vertex(q, v[2]), vertex(q, v[3]),
+                          gradient, hessian);
+  }
+  const ClampHinge& c = clamp_hinges[static_cast<size_t>(a - num_hinges())];
+  return dihedral_angle(vertex(q, c.v[0]), vertex(q, c.v[1]), vertex(q, c.v[2]), c.ghost,
+                        gradient, hessian);
+}
+
+void TriangleShell::Impl::shape_operator_pass(const Eigen::VectorXd& q,
+                                              std::vector<double>* face_energy,
+                                              Eigen::VectorXd* gradient,
+                                              double* hessian_values) const {
+  const int na = num_angles();
+  const auto& faces = shape->faces();
+  const int nf = static_cast<int>(faces.size());
+  const bool derivatives = gradient || hessian_values;
+  const auto au = static_cast<size_t>(na);
+  // 1. Every angle once (a hinge enters up to ~9 faces): θ, ∇θ, ∇²θ.
+  std::vector<double> theta(au);
+  std::vector<Vector12> dtheta(derivatives ? au : 0);
+  std::vector<Matrix12> d2theta(hessian_values ? au : 0);
+  for_each_index(na, [&](int a) {
+    const auto u = static_cast<size_t>(a);
+    theta[u] = angle(q, a, derivatives ? &dtheta[u] : nullptr,
+                     hessian_values ? &d2theta[u] : nullptr);
+  });
+  // 2. Faces: s_m = E φ, W_T = s_mᵀ S s_m, ∂W_T/∂φ = 2 Eᵀ S s_m (φ = −θ).
+  face_energy->assign(static_cast<size_t>(nf), 0.0);
+  const size_t num_sources =
+      nf == 0 ? 0 : static_cast<size_t>(face_source_start.back()) + faces.back().sources.size();
+  std::vector<double> dW(derivatives ? num_sources : 0, 0.0);
+  for_each_index(nf, [&](int f) {
+    const auto fu = static_cast<size_t>(f);
+    const ShapeOperatorBending::Face& face = faces[fu];
+    if (face.measured.empty()) return;
+    const Eigen::VectorXd rotations = measured_rotations(face, theta);
+    const Eigen::VectorXd Ss = shape_stiffness.form[fu] * rotations;
+    (*face_energy)[fu] = rotations.dot(Ss);
+    if (!derivatives) return;
+    const Eigen::VectorXd d = 2.0 * face.edge_map.transpose() * Ss;
+    for (size_t j = 0; j < face.sources.size(); ++j)
+      dW[static_cast<size_t>(face_source_start[fu]) + j] = d[static_cast<Eigen::Index>(j)];
+  });
+  if (!derivatives) return;
+  // 3. ∂Ψ/∂φ_a, summed over the angle's faces in a fixed order.
+  std::vector<double> lambda(au, 0.0);
+  for_each_index(na, [&](int a) {
+    double sum = 0.0;
+    for (int i : angle_users[static_cast<size_t>(a)]) sum += dW[static_cast<size_t>(i)];
+    lambda[static_cast<size_t>(a)] = sum;
+  });
+  // 4. Assembly. Gradient Σ_a λ_a ∂φ_a/∂q; Hessian Σ_a λ_a ∂²φ_a/∂q² (on the hinge's blocks)
+  //    + Σ_T 2 (E ∂φ/∂q)ᵀ S (E ∂φ/∂q) (on the face stencil's blocks).
+  for_each_by_slab(bending_slabs, [&](int id) {
+    if (id < na) {
+      const auto u = static_cast<size_t>(id);
+      const double w = -lambda[u];  // ∂φ/∂q = −∂θ/∂q
+      const std::array<int, 4> v = angle_vertices(id);
+      const int count = v[3] >= 0 ? 4 : 3;
+      if (gradient)
+        for (int i = 0; i < count; ++i)
+          gradient->segment<3>(3 * v[static_cast<size_t>(i)]) += w * dtheta[u].segment<3>(3 * i);
+      if (!hessian_values) return;
+      if (id < num_hinges()) {
+        const auto& off = hinge_offsets[u];
+        for (int a = 0; a < 4; ++a)
+          for (int b = 0; b < 4; ++b)
+            for (int s = 0; s < 3; ++s) {
+              double* dst = hessian_values + off[static_cast<size_t>((a * 4 + b) * 3 + s)];
+              for (int r = 0; r < 3; ++r) dst[r] += w * d2theta[u](3 * a + r, 3 * b + s);
+            }
+      } else {
+        const ClampHinge& c = clamp_hinges[static_cast<size_t>(id - num_hinges())];
+        const auto& off = tri_offsets[static_cast<size_t>(c.face)];
+        for (size_t a = 0; a < 3; ++a)
+          for (size_t b = 0; b < 3; ++b)
+            for (int s = 0; s < 3; ++s) {
+              double* dst = hessian_values +
+                            off[static_cast<size_t>((c.local[a] * 3 + c.local[b]) * 3 + s)];
+              for (int r = 0; r < 3; ++r)
+                dst[r] += w * d2theta[u](3 * static_cast<int>(a) + r, 3 * static_cast<int>(b) + s);
+            }
+      }
+      return;
+    }
+    if (!hessian_values) return;
+    const auto fu = static_cast<size_t>(id - na);
+    const ShapeOperatorBending::Face& face = faces[fu];
+    if (face.measured.empty()) return;
+    const std::vector<int>& st = stencil[fu];
+    const auto n = static_cast<Eigen::Index>(st.size());
+    Eigen::MatrixXd Y = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(face.measured.size()), 3 * n);
+    for (size_t j = 0; j < face.sources.size(); ++j) {
+      const auto a = static_cast<size_t>(face.sources[j]);
+      const std::array<int, 4>& slots = source_slots[fu][j];
+      for (int i = 0; i < 4; ++i)
+        if (slots[static_cast<size_t>(i)] >= 0)
+          Y.middleCols<3>(3 * slots[static_cast<size_t>(i)]).noalias() -=
+              face.edge_map.col(static_cast<Eigen::Index>(j)) *
+              dtheta[a].segment<3>(3 * i).transpose();
+    }
+    const Eigen::MatrixXd H = 2.0 * Y.transpose() * (shape_stiffness.form[fu] * Y);
+    const std::vector<int>& off = stencil_offsets[fu];
+    for (Eigen::Index a = 0; a < n; ++a)
+      for (Eigen::Index b = 0; b < n; ++b)
+        for (int s = 0; s < 3; ++s) {
+          double* dst = hessian_values + off[static_cast<size_t>((a * n + b) * 3 + s)];
+          for (int r = 0; r < 3; ++r) dst[r] += H(3 * a + r, 3 * b + s);
+        }
+  });
 }
 
 double TriangleShell::clamp_hinge_stiffness(Eigen::Matrix<double, 1, 5>* derivative) const {
@@ -636,6 +939,7 @@ void TriangleShell::gradient_parameter_jacobian(const Eigen::VectorXd& q,
   Eigen::Matrix<double, 1, 5> clamp_dk;
   clamp_hinge_stiffness(&clamp_dk);
   m.for_each_by_slab([&](int id) {
+    if (id >= nf && m.shape) return;  // shape-operator bending below
     if (id >= nf + nh) {
       // ∂(2 k_b g θ ∇θ)/∂p = 2 (∂k_b/∂p) g θ ∇θ, over the real triangle's vertices.
       const ClampHinge& c = m.clamp_hinges[static_cast<size_t>(id - nf - nh)];
@@ -674,6 +978,46 @@ void TriangleShell::gradient_parameter_jacobian(const Eigen::VectorXd& q,
             dk * unit.segment<3>(3 * static_cast<int>(a));
     }
   });
+  if (m.shape) {
+    // ∂(∂Ψ/∂q)/∂p = Σ_a (∂λ_a/∂p) ∂φ_a/∂q with ∂λ_a/∂p = Σ_T 2 (Eᵀ ∂S_T/∂p s_m)_a
+    // (shape_operator_bending.hpp (4): ∂S/∂p = Tᵀ ∂Q/∂p T).
+    const int na = m.num_angles();
+    const auto& faces = m.shape->faces();
+    std::vector<double> theta(static_cast<size_t>(na));
+    std::vector<Vector12> dtheta(static_cast<size_t>(na));
+    m.for_each_index(na, [&](int a) {
+      theta[static_cast<size_t>(a)] = m.angle(q, a, &dtheta[static_cast<size_t>(a)], nullptr);
+    });
+    const size_t num_sources =
+        faces.empty() ? 0
+                      : static_cast<size_t>(m.face_source_start.back()) + faces.back().sources.size();
+    std::vector<Eigen::Matrix<double, 1, 5>> dW(num_sources, Eigen::Matrix<double, 1, 5>::Zero());
+    m.for_each_index(static_cast<int>(faces.size()), [&](int f) {
+      const auto fu = static_cast<size_t>(f);
+      const ShapeOperatorBending::Face& face = faces[fu];
+      if (face.measured.empty()) return;
+      const Eigen::VectorXd rotations = measured_rotations(face, theta);
+      const auto dS = m.shape->form_derivative(f, law_->parameters(), m.shape_stiffness);
+      for (size_t p = 0; p < dS.size(); ++p) {
+        const Eigen::VectorXd d = 2.0 * face.edge_map.transpose() * (dS[p] * rotations);
+        for (size_t j = 0; j < face.sources.size(); ++j)
+          dW[static_cast<size_t>(m.face_source_start[fu]) + j][static_cast<Eigen::Index>(p)] =
+              d[static_cast<Eigen::Index>(j)];
+      }
+    });
+    m.for_each_by_slab(m.bending_slabs, [&](int id) {
+      if (id >= na) return;
+      Eigen::Matrix<double, 1, 5> lambda = Eigen::Matrix<double, 1, 5>::Zero();
+      for (int i : m.angle_users[static_cast<size_t>(id)]) lambda += dW[static_cast<size_t>(i)];
+      const std::array<int, 4> v = m.angle_vertices(id);
+      const int count = v[3] >= 0 ? 4 : 3;
+      for (size_t p = 0; p < bending_columns.size(); ++p)
+        for (int i = 0; i < count; ++i)
+          J.block<3, 1>(3 * v[static_cast<size_t>(i)], bending_columns[p]) -=
+              lambda[static_cast<Eigen::Index>(p)] *
+              dtheta[static_cast<size_t>(id)].segment<3>(3 * i);
+    });
+  }
   // Gravity: ∂(−m_i g)/∂ρ_A = −(Σ Ā_T/3) g.
   for (int v = 0; v < t.num_vertices(); ++v)
     J.block<3, 1>(3 * v, FlatLayout::kDensity) -= m.vertex_area[v] * gravity_;

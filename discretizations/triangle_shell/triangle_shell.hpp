@@ -1,29 +1,34 @@
 #pragma once
-// The triangle shell: linear membrane triangles plus orthotropic discrete-shell hinge bending
-// on an OpenMesh triangulation of the strip (docs/triangle_shell.md; docs/model.md §1–2, §6).
-// Registered name "triangle-shell".
+// The triangle shell: linear membrane triangles plus orthotropic Kirchhoff–Love bending from
+// discrete-shell hinge angles on an OpenMesh triangulation of the strip (docs/triangle_shell.md;
+// docs/model.md §1–2, §6). Registered name "triangle-shell".
 //
 // Nodes are the mesh vertices (strip_triangulation.hpp: numbering and patterns), dofs their
 // positions q = [x0 y0 z0 x1 …] [m] (core/discretization.hpp). Energy [J]:
 //
 //   Ψ(q) = Σ_T τ Ā_T ψ(ẽ_T)                      membrane, constant-strain triangles
-//        + Σ_hinges k_e · |ē|²/Ā_e · θ_e²          bending, flat rest state (θ̄ = 0)
+//        + Ψ_bending(θ)                            bending, flat rest state, θ = dihedral angles
 //        − Σ_i m_i g·x_i                           gravity, m_i = ρ_A Σ_{T∋i} Ā_T/3
 //
 // ẽ_T = (Ẽ11, Ẽ22, Ẽ12) is the orthotropic Green strain of triangle T
-// (constant_strain_triangle.hpp), θ_e the dihedral angle of interior edge e and Ā_e a third of
-// its two triangles' reference area (Grinspun et al. 2003). The hinge stiffness k_e ∝ τ³
-// follows from (a11, a22, a12 + G12). Default (HingeModel::Directional): k_e = λ D(n_e)/6, the
-// plate's bending stiffness τ³/12 C(n,n,n,n) across the edge, with one factor λ per mesh so
-// that cylinders bent along warp and weft carry the Kirchhoff–Love energy
-// τ³/24 · ẽᵀ ∂²ψ/∂ẽ²(0) ẽ per unit area; 45° cylinders are then too stiff on aligned meshes.
-// HingeModel::Cylinders: per-class stiffnesses matching warp, weft and 45° exactly, which
-// leaves soft diagonal fold modes (hinge_bending.hpp; docs/triangle_shell.md §4–5, §10). The membrane is the paper's law exactly; the
-// through-thickness integral is split as τψ(ε) + (bending at zero strain), i.e. the
-// second-order expansion of model.md §6 with the bending term evaluated at ε = 0.
+// (constant_strain_triangle.hpp); m_i is also the consistent load of linear triangles
+// (∫ρ_A g·x dA over T is Ā_T g·(x0 + x1 + x2)/3 exactly). Bending models (HingeModel):
+//   shape-operator (default)  Σ_T Ā_T τ³/24 ẽ_Tᵀ C ẽ_T with a per-triangle curvature ẽ_T from
+//                             the hinge angles of the triangle and its neighbours, consistent
+//                             and telescoping (shape_operator_bending.hpp; §4.7): the law's
+//                             own bending energy, a12 and twist included, and no mesh-scale
+//                             mode can soften a bend.
+//   directional, cylinders    Σ_e k_e |ē|²/Ā_e θ_e² (Grinspun et al. 2003) with hinge
+//                             stiffnesses k_e ∝ τ³ from (a11, a22, a12 + G12)
+//                             (hinge_bending.hpp; §4.4–4.6): exact only for some cylinders,
+//                             and soft mesh-scale modes break the cantilever (§10).
+// The membrane is the paper's law exactly; the through-thickness integral is split as
+// τψ(ε) + (bending at zero strain), i.e. the second-order expansion of model.md §6 with the
+// bending term evaluated at ε = 0.
 //
 // Gradient and Hessian are exact (no projection). The Hessian pattern (3×3 blocks for every
-// vertex pair sharing a triangle or a hinge) is built once; assembly writes values only,
+// vertex pair sharing a triangle, a hinge or, for the shape operator, a face's bending stencil:
+// the face, its neighbours and theirs) is built once; assembly writes values only,
 // elements in parallel (TBB) by slabs of cell columns: even slabs, then odd ones (slabs of one
 // parity share no vertex, so writes never collide and results are bitwise deterministic for
 // any thread count).
@@ -35,11 +40,13 @@
 // the effective clamp sits one cell in, an O(h) shortening of a cantilever's overhang. With
 // clamp_hinges on an end, only the end line is held and the slope is held by *clamp hinges*:
 // every boundary edge on that end line is a hinge against a ghost triangle fixed in the rest
-// plane (the platform or jaw), stiffness k_b = W_cyl(x̂)/3 with W_cyl the KL energy per area
-// of a unit cylinder across the end line and Ā_e = Ā_T/3 (its one real triangle), which gives
-// the KL energy of that cylinder in the half cell next to the clamp for any apex position
-// (docs/triangle_shell.md §8). The ghost is fixed in space: clamp hinges assume the held end
-// line only translates in the rest plane (tensile jaws, the cantilever platform).
+// plane (the platform or jaw). Hinge models give it stiffness k_b = W_cyl(x̂)/3 with W_cyl the
+// KL energy per area of a unit cylinder across the end line and Ā_e = Ā_T/3 (its one real
+// triangle), which gives the KL energy of that cylinder in the half cell next to the clamp for
+// any apex position (docs/triangle_shell.md §8); the shape operator uses its angle as the
+// rotation of that boundary edge in the face's curvature (§4.7). The ghost is fixed in space:
+// clamp hinges assume the held end line only translates in the rest plane (tensile jaws, the
+// cantilever platform).
 #include <Eigen/Core>
 #include <cstdint>
 #include <memory>
@@ -50,6 +57,7 @@
 #include "core/material_law.hpp"
 #include "core/parameters.hpp"
 #include "discretizations/triangle_shell/hinge_bending.hpp"
+#include "discretizations/triangle_shell/shape_operator_bending.hpp"
 #include "discretizations/triangle_shell/triangle_pattern.hpp"
 
 namespace twill {
@@ -64,16 +72,24 @@ std::string to_string(StripEnds ends);                        // "none", "start"
 StripEnds strip_ends_from_string(const std::string& text);    // throws InputError for others
 bool includes(StripEnds ends, StripEnd end);
 
-/// How the hinge stiffnesses follow from the law (docs/triangle_shell.md §4).
+/// The bending model (docs/triangle_shell.md §4, §10): how the dihedral angles become energy.
 enum class HingeModel {
-  /// k_e = λ · D(n_e)/6, the plate's bending stiffness across each edge (DirectionalHingeModel):
-  /// warp and weft cylinders match KL, no hinge is softer than the plate in its direction.
+  /// Per-triangle shape operator from the hinge angles, split consistently and telescoping
+  /// between neighbours, with the Kirchhoff–Love law τ³/24 ẽᵀCẽ applied to it
+  /// (shape_operator_bending.hpp): exact for every uniform curvature on every pattern, free of
+  /// mesh-scale modes, free edges with M_nn = 0. The default.
+  ShapeOperator,
+  /// Hinge energies k_e g_e θ_e² with k_e = λ · D(n_e)/6, the plate's bending stiffness across
+  /// each edge (DirectionalHingeModel): warp and weft cylinders match KL, no hinge is softer
+  /// than the plate in its direction; the alternating mesh's checkerboard halves the
+  /// cantilever's stiffness (§10).
   Directional,
-  /// Per-class stiffnesses solved so that warp, weft and 45° cylinders match KL exactly
-  /// (HingeCalibration); leaves soft diagonal hinges on aligned meshes (§10).
+  /// Hinge energies with per-class stiffnesses solved so that warp, weft and 45° cylinders
+  /// match KL exactly (HingeCalibration); leaves soft diagonal hinges on aligned meshes (§10).
   Cylinders,
 };
-std::string to_string(HingeModel model);                      // "directional", "cylinders"
+/// "shape-operator", "directional", "cylinders".
+std::string to_string(HingeModel model);
 HingeModel hinge_model_from_string(const std::string& text);  // throws InputError for others
 
 struct TriangleShellOptions {
@@ -91,10 +107,11 @@ struct TriangleShellOptions {
   /// whether or not the experiment holds that end (pure bending of free sheets must not have
   /// them); the cantilever wants `start`.
   StripEnds clamp_hinges = StripEnds::None;
-  /// Hinge stiffness model. Cylinders by default (the 45° cylinder requirement);
-  /// directional removes the soft diagonal fold of the cantilever but not the mesh-scale
-  /// checkerboard mode that halves the bending stiffness of both (docs/triangle_shell.md §10).
-  HingeModel hinge_model = HingeModel::Cylinders;
+  /// Bending model. The shape operator by default: it is exact for cylinders in every
+  /// direction, doubly curved states and twist, and the only model whose cantilever matches
+  /// the Catmull–Clark shell (docs/triangle_shell.md §10); the hinge models are kept for
+  /// comparison (cylinders: soft diagonal folds; directional: the checkerboard mode).
+  HingeModel hinge_model = HingeModel::ShapeOperator;
 
   /// Empty when valid; otherwise names the field and the violated constraint (Ceres style).
   std::string validate() const;
@@ -148,10 +165,17 @@ class TriangleShell final : public Discretization {
 
   /// Ψ split into membrane, bending and gravity (diagnostics and tests).
   TriangleShellEnergyParts energy_parts(const Eigen::VectorXd& q) const;
-  /// Bending energy of every hinge k_e g_e θ_e² [J], in triangulation().hinges order.
+  /// Hinge models: bending energy of every hinge k_e g_e θ_e² [J], in triangulation().hinges
+  /// order. Zero for the shape operator, whose energy lives on the faces (face_bending_energies).
   Eigen::VectorXd hinge_energies(const Eigen::VectorXd& q) const;
-  /// Bending energy of every clamp hinge k_b g_b θ_b² [J] (empty without clamp hinges).
+  /// Hinge models: bending energy of every clamp hinge k_b g_b θ_b² [J] (empty without clamp
+  /// hinges; zero for the shape operator, where the clamp angle enters the face's K_T).
   Eigen::VectorXd clamp_hinge_energies(const Eigen::VectorXd& q) const;
+  /// Shape operator: bending energy W_T of every face [J] (#faces; zero for the hinge models).
+  Eigen::VectorXd face_bending_energies(const Eigen::VectorXd& q) const;
+  /// Shape operator: ẽ_T = (K̃11, K̃22, K̃12) of every face [1/m] (#faces × 3), free-edge
+  /// rotations at their minimiser. Throws std::logic_error for the hinge models.
+  Eigen::Matrix<double, Eigen::Dynamic, 3> face_curvatures(const Eigen::VectorXd& q) const;
   /// Clamp-hinge stiffness k_b = W_cyl(x̂)/3 [J] and ∂k_b/∂(a11, a12, a22, G12, τ).
   double clamp_hinge_stiffness(Eigen::Matrix<double, 1, 5>* derivative = nullptr) const;
 
@@ -166,8 +190,12 @@ class TriangleShell final : public Discretization {
   /// The stiffness of every hinge in the active model, with derivatives and the model's
   /// continuum error on the four calibration cylinders (recomputed by set_parameters()).
   const HingeStiffness& hinge_stiffnesses() const { return hinges_; }
-  /// The directional model's data (null for hinge_model = cylinders).
+  /// The directional model's data (null unless hinge_model = directional).
   const DirectionalHingeModel* directional_model() const;
+  /// The shape operator's reference data and its current stiffness (null / empty unless
+  /// hinge_model = shape-operator).
+  const ShapeOperatorBending* shape_operator() const;
+  const ShapeOperatorStiffness& shape_operator_stiffness() const;
 
  private:
   struct Impl;

@@ -1,5 +1,7 @@
 // Orthotropic hinge bending of the triangle shell against Kirchhoff–Love (docs/triangle_shell.md
-// §4–5): the calibration, pure bending on cylinders per pattern and direction, refinement.
+// §4–5): the calibration, pure bending on cylinders per pattern and direction, refinement. These
+// test the hinge models (hinge_options); the default shape-operator bending is tested in
+// test_triangle_shell_shape_operator.cpp.
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -51,7 +53,7 @@ TEST(HingeCalibration, StiffnessIsHomogeneousInTheStiffnessesAndCubicInThickness
   const MaterialParameters p = physical_parameters();
   for (TrianglePattern pattern : all_triangle_patterns())
     for (double angle : {90.0, 0.0, 30.0}) {
-      TriangleShell shell(strip(4, 6, angle), p, options(pattern));
+      TriangleShell shell(strip(4, 6, angle), p, hinge_options(pattern));
       const HingeClassStiffness k = shell.hinge_stiffness();  // a copy: set_parameters below
       ASSERT_GT(k.stiffness.size(), 0);
       EXPECT_TRUE((k.stiffness.array() >= 0).all());
@@ -78,7 +80,7 @@ TEST(HingeCalibration, ExactWhereThePatternCanRepresentTheCylinders) {
   for (double angle : {90.0, 0.0}) {  // material axes along the mesh axes
     std::map<TrianglePattern, HingeClassStiffness> k;
     for (TrianglePattern pattern : all_triangle_patterns()) {
-      TriangleShell shell(strip(8, 12, angle), p, options(pattern));
+      TriangleShell shell(strip(8, 12, angle), p, hinge_options(pattern));
       EXPECT_EQ(shell.hinge_calibration().num_classes(), 3) << to_string(pattern);
       k[pattern] = shell.hinge_stiffness();
     }
@@ -169,7 +171,7 @@ TEST(TriangleShellPureBending, HingeEnergyMatchesKirchhoffLoveOnCylinders) {
       HingeClassStiffness k;
       for (int level = 0; level < 3; ++level) {
         TriangleShell shell(strip(resolutions[level][0], resolutions[level][1], angle), p,
-                            options(pattern));
+                            hinge_options(pattern));
         if (level == 1) k = shell.hinge_stiffness();
         for (int j = 0; j < 4; ++j)
           r[level][j] = bend_on_cylinder(shell, cylinder_direction(angle, j));
@@ -225,7 +227,7 @@ TEST(TriangleShellClampHinges, CarryTheKirchhoffLoveEnergyOfTheHalfCellAtTheClam
   const double R = 0.04;
   for (TrianglePattern pattern : all_triangle_patterns())
     for (double angle : {90.0, 0.0, 30.0}) {
-      TriangleShellOptions o = options(pattern);
+      TriangleShellOptions o = hinge_options(pattern);
       o.clamp_hinges = StripEnds::Start;
       const MaterialParameters p = physical_parameters();
       TriangleShell shell(strip(4, 6, angle), p, o);
@@ -266,7 +268,7 @@ TEST(HingeCalibration, ClosedFormsForSquareCellsWithAlignedMaterial) {
   const MaterialParameters p = physical_parameters();
   const double t3 = std::pow(p.thickness_m, 3), B = p.a12_Pa + p.G12_Pa;
   for (TrianglePattern pattern : {TrianglePattern::Alternating, TrianglePattern::Right}) {
-    TriangleShell shell(strip(8, 12, 90.0), p, options(pattern));
+    TriangleShell shell(strip(8, 12, 90.0), p, hinge_options(pattern));
     const StripTriangulation& t = shell.triangulation();
     std::map<std::string, double> k;  // by edge direction
     for (size_t h = 0; h < t.hinges.size(); ++h) {
@@ -299,7 +301,7 @@ TEST(TriangleShellPureBending, DoublyCurvedStatesFollowTheHomogenisedForm) {
   const char* names[3] = {"sphere", "saddle", "twist"};
   std::printf("doubly curved states (angle 90): hinge / KL energy − 1\n");
   for (TrianglePattern pattern : all_triangle_patterns()) {
-    TriangleShell shell(strip(16, 24, 90.0), p, options(pattern));
+    TriangleShell shell(strip(16, 24, 90.0), p, hinge_options(pattern));
     const HingeClasses classes = classify_hinges(shell.triangulation());
     const StripTriangulation& t = shell.triangulation();
     const StripSpec& s = shell.strip();
@@ -349,10 +351,13 @@ TEST(TriangleShellPureBending, DoublyCurvedStatesFollowTheHomogenisedForm) {
 TEST(TriangleShellAssembly, TimingsAt16x24And32x48) {
   const MaterialParameters p = nonlinear_parameters();
   std::printf("assembly (energy + gradient + Hessian), alternating pattern\n");
+  for (HingeModel model : {HingeModel::ShapeOperator, HingeModel::Cylinders})
   for (const auto& [across, along] : {std::pair{16, 24}, std::pair{32, 48}}) {
     for (int threads : {1, 2}) {
       const auto t0 = std::chrono::steady_clock::now();
-      TriangleShell shell(strip(across, along), p, options(TrianglePattern::Alternating, threads));
+      TriangleShellOptions o = options(TrianglePattern::Alternating, threads);
+      o.hinge_model = model;
+      TriangleShell shell(strip(across, along), p, o);
       const auto t1 = std::chrono::steady_clock::now();
       const Eigen::VectorXd q =
           cylinder_positions(shell.rest_positions(), Eigen::Vector2d(1, 0.3), 0.05, 0.075);
@@ -369,9 +374,9 @@ TEST(TriangleShellAssembly, TimingsAt16x24And32x48) {
         return std::chrono::duration<double, std::milli>(b - a).count() / n;
       };
       std::printf(
-          "  %2dx%2d  threads %d: build %.1f ms, E+g+H %.2f ms, E+g %.2f ms (%d dofs, %ld nnz)\n",
-          across, along, threads, ms(t0, t1, 1), ms(t2, t3, runs), ms(t3, t4, runs),
-          shell.num_dofs(), static_cast<long>(H.nonZeros()));
+          "  %-14s %2dx%2d  threads %d: build %.1f ms, E+g+H %.2f ms, E+g %.2f ms (%d dofs, %ld nnz)\n",
+          to_string(model).c_str(), across, along, threads, ms(t0, t1, 1), ms(t2, t3, runs),
+          ms(t3, t4, runs), shell.num_dofs(), static_cast<long>(H.nonZeros()));
       EXPECT_LT(ms(t2, t3, runs), 500.0);
     }
   }

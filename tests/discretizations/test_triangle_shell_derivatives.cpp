@@ -302,20 +302,32 @@ INSTANTIATE_TEST_SUITE_P(Patterns, TriangleShellDerivatives,
                                            // is a non-trivial least-squares factor.
                                            DerivativeCase{TrianglePattern::Alternating, 5e-3, StripEnds::Both, HingeModel::Directional},
                                            DerivativeCase{TrianglePattern::Irregular, 5e-3, StripEnds::None, HingeModel::Directional},
-                                           DerivativeCase{TrianglePattern::Cross, 0.45e-3, StripEnds::None, HingeModel::Directional}),
+                                           DerivativeCase{TrianglePattern::Cross, 0.45e-3, StripEnds::None, HingeModel::Directional},
+                                           // Shape operator: faces with free, clamped and
+                                           // interior edges, Schur complements at 30°.
+                                           DerivativeCase{TrianglePattern::Alternating, 5e-3, StripEnds::Both, HingeModel::ShapeOperator},
+                                           DerivativeCase{TrianglePattern::Irregular, 5e-3, StripEnds::Start, HingeModel::ShapeOperator},
+                                           DerivativeCase{TrianglePattern::Cross, 5e-3, StripEnds::Both, HingeModel::ShapeOperator},
+                                           DerivativeCase{TrianglePattern::Right, 0.45e-3, StripEnds::None, HingeModel::ShapeOperator}),
                          [](const auto& test_info) {
+                           const HingeModel model = test_info.param.hinge_model;
                            return to_string(test_info.param.pattern) +
                                   (test_info.param.thickness_m > 1e-3 ? "_thick" : "_thin") +
                                   (test_info.param.clamp_hinges == StripEnds::None ? "" : "_clamp_hinges") +
-                                  (test_info.param.hinge_model == HingeModel::Directional ? "_directional" : "");
+                                  (model == HingeModel::Directional     ? "_directional"
+                                   : model == HingeModel::ShapeOperator ? "_shape_operator"
+                                                                        : "");
                          });
 
 // ---------------------------------------------------------------------------------------
 // Invariances and the patch test
 
 TEST(TriangleShell, RigidMotionLeavesEnergyInvariantAndRotatesForces) {
+  for (HingeModel model : {HingeModel::ShapeOperator, HingeModel::Directional, HingeModel::Cylinders})
   for (TrianglePattern pattern : all_triangle_patterns()) {
-    TriangleShell shell(strip(4, 6, 30.0), nonlinear_parameters(), options(pattern));
+    TriangleShellOptions o = options(pattern);
+    o.hinge_model = model;
+    TriangleShell shell(strip(4, 6, 30.0), nonlinear_parameters(), o);
     const Eigen::VectorXd q = distorted_configuration(shell, 3);
     const Eigen::Matrix3d R =
         Eigen::AngleAxisd(0.7, Eigen::Vector3d(1.0, -2.0, 0.5).normalized()).toRotationMatrix();
@@ -356,8 +368,11 @@ TEST(TriangleShell, PatchTestReproducesUniformStrainForEveryPattern) {
   const StripSpec s = strip(5, 7, angle);
   const double expected = s.length_m * s.width_m * p.thickness_m * law.energy_density(e);
 
+  for (HingeModel model : {HingeModel::ShapeOperator, HingeModel::Directional, HingeModel::Cylinders})
   for (TrianglePattern pattern : all_triangle_patterns()) {
-    TriangleShell shell(s, p, options(pattern));
+    TriangleShellOptions o = options(pattern);
+    o.hinge_model = model;
+    TriangleShell shell(s, p, o);
     const Eigen::VectorXd& rest = shell.rest_positions();
     Eigen::VectorXd q(rest.size());
     for (Eigen::Index i = 0; i < rest.size() / 3; ++i)

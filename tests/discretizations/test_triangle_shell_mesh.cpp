@@ -145,6 +145,15 @@ TEST(TriangleShellOptions, RegistrySchemaMatchesTheOptions) {
   EXPECT_EQ(d.perturbation, defaults.perturbation);
   EXPECT_EQ(d.seed, defaults.seed);
   EXPECT_EQ(d.threads, defaults.threads);
+  EXPECT_EQ(d.hinge_model, defaults.hinge_model);
+  EXPECT_EQ(d.hinge_model, HingeModel::ShapeOperator);
+  for (HingeModel m : {HingeModel::ShapeOperator, HingeModel::Directional, HingeModel::Cylinders}) {
+    Options chosen = default_options(schema, nullptr);
+    apply_override(chosen, schema, nullptr, "hinge_model=" + to_string(m));
+    EXPECT_EQ(triangle_shell_options(chosen).hinge_model, m);
+  }
+  EXPECT_THROW(apply_override(o, schema, nullptr, "hinge_model=midedge"), InputError);
+  EXPECT_EQ(input_error_key([] { hinge_model_from_string("midedge"); }), "hinge_model");
   apply_override(o, schema, nullptr, "pattern=cross");
   EXPECT_EQ(triangle_shell_options(o).pattern, TrianglePattern::Cross);
   EXPECT_THROW(apply_override(o, schema, nullptr, "pattern=diagonal"), InputError);

@@ -20,6 +20,18 @@ inline StripSpec strip(int cells_across, int cells_along, double angle_deg = 90.
   return s;
 }
 
+/// The D1388 strip near the clamp at the cantilever's resolution (25 mm × 30 mm, 8 × 28 cells,
+/// warp along x): where the alternating mesh's checkerboard mode is studied (docs §10).
+inline StripSpec checkerboard_strip() {
+  StripSpec s;
+  s.length_m = 0.030;
+  s.width_m = 0.025;
+  s.cells_across = 8;
+  s.cells_along = 28;
+  s.angle_deg = 90;
+  return s;
+}
+
 /// τ = 0.45 mm, a11 = 3e7, a22 = 2.2e7, a12 = 1.1e7, G12 = 4e5 Pa, ρ_A = 0.294 kg/m²,
 /// linear curves (orthotropic StVK), cutoffs off.
 inline MaterialParameters physical_parameters() {
@@ -44,10 +56,19 @@ inline MaterialParameters nonlinear_parameters() {
   return p;
 }
 
+/// The pattern with the default bending model (the shape operator).
 inline TriangleShellOptions options(TrianglePattern pattern, int threads = 0) {
   TriangleShellOptions o;
   o.pattern = pattern;
   o.threads = threads;
+  return o;
+}
+
+/// The pattern with a hinge bending model (tests of the hinge calibration, §4.1–4.6).
+inline TriangleShellOptions hinge_options(TrianglePattern pattern,
+                                          HingeModel model = HingeModel::Cylinders) {
+  TriangleShellOptions o = options(pattern);
+  o.hinge_model = model;
   return o;
 }
 

@@ -1,31 +1,32 @@
-// The triangle shell's cantilever (issue #4, docs/triangle_shell.md §10): why the acceptance
-// target (41.5° overhang within 3 % of the Catmull–Clark shell) is not met yet. The hinge
-// energy of a uniformly bent strip matches Kirchhoff–Love (test_triangle_shell_bending), but
-// on the alternating mesh a checkerboard z-field, δ(−1)^{i+j}, bends every hinge across the
-// strip by the same angle as a uniform curvature does: a smooth bend plus a checkerboard of
-// amplitude −h²K/4 leaves those hinges flat and costs only the other hinges. Gravity on a
-// clamped strip relaxes into that combination, so the strip is about half as stiff as the
-// plate (measured in §10), for both hinge models.
+// The triangle shell's cantilever (issue #4, docs/triangle_shell.md §10): the 41.5° overhang
+// against the Catmull–Clark shell for the same parameters (acceptance: within 3 %), and the
+// mesh-scale mode that made the hinge models fail it.
+//
+// The hinge models (hinge_model = cylinders, directional) measure one hinge angle per edge: on
+// the alternating mesh a checkerboard z-field, δ(−1)^{i+j}, bends every hinge across the strip
+// by the same angle as a uniform curvature does, so a smooth bend plus a checkerboard of
+// amplitude −h²K/4 leaves those hinges flat and the strip is about half as stiff as the plate.
+// The shape operator (default) builds each face's curvature from the hinges with a split that
+// telescopes between neighbours, so no mesh-scale field changes the mean curvature
+// (test_triangle_shell_shape_operator.cpp), and its overhang agrees with Catmull–Clark.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdio>
 
+#include "core/params_io.hpp"
+#include "discretizations/catmull_clark_kl/catmull_clark_kl.hpp"
 #include "discretizations/triangle_shell/strip_triangulation.hpp"
 #include "discretizations/triangle_shell/triangle_shell.hpp"
+#include "experiments/cantilever_test.hpp"
 #include "tests/discretizations/test_triangle_shell_support.hpp"
 
 namespace twill {
 namespace {
 
-TEST(TriangleCantilever, CheckerboardCancelsTheBendAcrossTheStripOnTheAlternatingMesh) {
+TEST(TriangleCantilever, CheckerboardCancelsTheBendAcrossTheStripForHingeModels) {
   // The D1388 strip at the cantilever resolution (25 mm × 30 mm, 8 × 28 cells), warp along x.
-  StripSpec s;
-  s.length_m = 0.030;
-  s.width_m = 0.025;
-  s.cells_across = 8;
-  s.cells_along = 28;
-  s.angle_deg = 90;
+  const StripSpec s = triangle_shell_test::checkerboard_strip();
   for (HingeModel model : {HingeModel::Cylinders, HingeModel::Directional}) {
     TriangleShellOptions o;
     o.hinge_model = model;
@@ -75,6 +76,72 @@ TEST(TriangleCantilever, CheckerboardCancelsTheBendAcrossTheStripOnTheAlternatin
     EXPECT_NEAR(mixed, A * B / (A + B), 1e-3 * A) << to_string(model);
     EXPECT_LT(mixed, 0.9 * A) << to_string(model);
   }
+}
+
+DiscretizationFactory catmull_clark() {
+  return [](const StripSpec& s, const MaterialParameters& p) -> std::unique_ptr<Discretization> {
+    return std::make_unique<CatmullClarkKL>(s, p);
+  };
+}
+
+DiscretizationFactory triangle_shell(StripEnds clamp_hinges) {
+  TriangleShellOptions o;  // shape-operator bending, alternating pattern
+  o.clamp_hinges = clamp_hinges;
+  o.threads = 1;
+  return [o](const StripSpec& s, const MaterialParameters& p) -> std::unique_ptr<Discretization> {
+    return std::make_unique<TriangleShell>(s, p, o);
+  };
+}
+
+TEST(TriangleCantilever, OverhangWithinThreePercentOfCatmullClark) {
+  // Issue #4: "overhang at 41.5° within 3 % of the Catmull–Clark result for the same
+  // parameters". Canvas reference parameters, warp along the strip, the bend test's default
+  // resolution 4×64 for both. Measured: Catmull–Clark 86.16 mm; triangle shell 85.22 mm
+  // (−1.09 %) with the default clamp (first cell column held) and 84.22 mm (−2.24 %) with clamp
+  // hinges. Under refinement the triangle shell settles at 84.72 mm (16×128, every pattern),
+  // Catmull–Clark comes down from above (85.20 mm at 16×128): docs/triangle_shell.md §10.
+  const MaterialParameters p =
+      read_params_file(std::string(TWILL_SHARED_DIR) + "/data/reference/canvas/params.yaml");
+  CantileverSetup setup;  // 90°, 25 mm wide, 4 × 64
+  const OverhangSearchResult cc = CantileverExperiment(setup, catmull_clark(), p).find_overhang();
+  ASSERT_TRUE(cc.converged) << cc.message;
+  for (StripEnds clamp : {StripEnds::None, StripEnds::Start}) {
+    const OverhangSearchResult tri =
+        CantileverExperiment(setup, triangle_shell(clamp), p).find_overhang();
+    ASSERT_TRUE(tri.converged) << tri.message;
+    const double error = tri.overhang_mm / cc.overhang_mm - 1;
+    std::printf("[measured] canvas 4x64, clamp_hinges=%s: triangle %.3f mm (%.2f s), "
+                "Catmull-Clark %.3f mm (%.2f s): %+.2f %%\n",
+                to_string(clamp).c_str(), tri.overhang_mm, tri.wall_time_s, cc.overhang_mm,
+                cc.wall_time_s, 100 * error);
+    EXPECT_NEAR(tri.chord_angle_deg, kD1388ChordAngle_deg, 1e-3);
+    EXPECT_LT(std::abs(error), 0.03) << "clamp_hinges=" << to_string(clamp);
+  }
+}
+
+TEST(TriangleCantilever, LinearMaterialMatchesPeirce) {
+  // With a12 = 0 a strip and a plate have the same rigidity, and Peirce's L = 2 (B/w)^{1/3}
+  // is exact to 0.02 % for the inextensible elastica (cantilever_test.hpp): an independent
+  // reference. Clamp hinges (the clamp at the platform edge, not one cell in), 4 × 64:
+  // measured 85.82 mm against 85.81 mm (+0.01 %; the same to 0.03 % from 4×32 to 16×128,
+  // where Catmull–Clark is +1.7 … +0.4 %). Tolerance 0.5 %: Peirce's 0.02 % plus the
+  // membrane's extensibility and the finite fold angles.
+  MaterialParameters p;
+  p.density_kg_m2 = 0.294;
+  p.thickness_m = 4.5e-4;
+  p.a11_Pa = 3e7;
+  p.a22_Pa = 2.2e7;
+  p.a12_Pa = 0.0;
+  p.G12_Pa = 4e5;
+  CantileverSetup setup;
+  CantileverExperiment experiment(setup, triangle_shell(StripEnds::Start), p);
+  const double peirce = experiment.peirce_overhang_mm(experiment.bending_rigidity_plate_Nm());
+  const OverhangSearchResult r = experiment.find_overhang();
+  ASSERT_TRUE(r.converged) << r.message;
+  const double error = r.overhang_mm / peirce - 1;
+  std::printf("[measured] StVK a12 = 0, 4x64: triangle %.3f mm, Peirce %.3f mm: %+.2f %%\n",
+              r.overhang_mm, peirce, 100 * error);
+  EXPECT_LT(std::abs(error), 0.005);
 }
 
 }  // namespace
