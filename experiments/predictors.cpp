@@ -42,6 +42,14 @@ bool TensilePredictor::predict(const MaterialParameters& k, const std::vector<in
       guesses[i] = anchor_dq_[i].cols() == dk.size() ? Eigen::VectorXd(anchor_q_[i] + anchor_dq_[i] * dk)
                                                      : anchor_q_[i];
     curve = experiment_.run_from(extensions_mm_, guesses);
+    if (!curve.completed) {
+      // The warm start is only an acceleration: a first-order guess from a distant anchor (an
+      // optimiser's rejected trial, or NLopt's restart at its best point after one) can leave
+      // the basin. Whether a point is evaluable must not depend on the path to it, so retry
+      // along the loading schedule from the flat strip.
+      for (const TensilePoint& p : curve.points) solves_ += 1 + p.solve.fallbacks;
+      curve = experiment_.run(extensions_mm_);
+    }
   } else {
     curve = experiment_.run(extensions_mm_);
   }

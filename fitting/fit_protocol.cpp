@@ -390,6 +390,10 @@ class Protocol {
     rec.avg_rel_error = error;
     rec.optimizer = optimizer.name();
     rec.status = to_string(r.status);
+    rec.message = r.message;
+    if (objective.failed_evaluations() > 0)
+      rec.message += fmt::format(" ({} failed evaluations; last: {})", objective.failed_evaluations(),
+                                 objective.last_failure());
     rec.iterations = r.summary.iterations;
     rec.evaluations = objective.evaluations();
     rec.equilibrium_solves = objective.equilibrium_solves();
@@ -437,9 +441,10 @@ class Protocol {
     out.error = mean_error(objective, runs.size());
     const FitStageRecord& rec =
         record_stage(stage.name, resolution, degree, out.error, *optimizer, r, objective, t);
-    say(0, fmt::format("{} {} degree {}: error {:.2f} % ({}, {} its, {} solves, {:.1f} s)", stage.name,
+    say(0, fmt::format("{} {} degree {}: error {:.2f} % ({}, {} its, {} solves, {:.1f} s){}", stage.name,
                        resolution, degree, 100 * out.error, rec.status, rec.iterations,
-                       rec.equilibrium_solves, rec.wall_time_s));
+                       rec.equilibrium_solves, rec.wall_time_s,
+                       r.status == OptimizerStatus::converged ? "" : ": " + rec.message));
     return out;
   }
 

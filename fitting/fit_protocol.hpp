@@ -74,6 +74,7 @@ struct FitStageRecord {
   double avg_rel_error = 0;  ///< over the stage's curves (mean)
   std::string optimizer;
   std::string status;        ///< optimiser status
+  std::string message;       ///< the optimiser's own words on why it stopped
   int iterations = 0;
   long evaluations = 0;
   long equilibrium_solves = 0;

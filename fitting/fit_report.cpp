@@ -99,7 +99,7 @@ json report_json(const FitReport& r, const Options& config) {
   for (const auto& s : r.stages)
     j["stages"].push_back({{"stage", s.stage}, {"resolution", s.resolution}, {"degree", s.degree},
                            {"avg_rel_error", s.avg_rel_error}, {"optimizer", s.optimizer},
-                           {"status", s.status}, {"iterations", s.iterations},
+                           {"status", s.status}, {"message", s.message}, {"iterations", s.iterations},
                            {"evaluations", s.evaluations}, {"equilibrium_solves", s.equilibrium_solves},
                            {"wall_time_s", s.wall_time_s}});
   j["fit"] = json::array();

@@ -230,8 +230,12 @@ void NloptOptimizer::run(CountedProblem& problem, Eigen::VectorXd x0,
     } catch (const std::exception& e) {
       library_error = e.what();
     }
-    if (!objective.error().empty() || !library_error.empty() || !objective.has_best()) break;
+    if (!objective.error().empty() || !objective.has_best()) break;
     const auto& stop = objective.stop();
+    // When our objective stopped the run, that is the reason, whatever NLopt then reports:
+    // LD_LBFGS answers a forced stop inside its line search with a generic "nlopt failure".
+    if (stop) library_error.clear();
+    if (!library_error.empty()) break;
     if (stop && stop->non_finite_trial) {
       radius = 0.5 * (stop->x - objective.best_x()).lpNorm<Eigen::Infinity>();
       if (!(radius > 0)) break;
