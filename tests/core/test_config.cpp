@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <ostream>
 
 #include "tests/core/toy_registry.hpp"
 
@@ -91,6 +92,7 @@ struct BadConfig {
   const char* key;
   const char* message;
 };
+void PrintTo(const BadConfig& c, std::ostream* os) { *os << c.file << ":" << c.line << " " << c.key; }
 
 class ConfigErrors : public Config, public ::testing::WithParamInterface<BadConfig> {};
 

@@ -2,6 +2,8 @@
 // order; every malformed input names its file, line and key or column.
 #include <gtest/gtest.h>
 
+#include <ostream>
+
 #include "core/dataset.hpp"
 #include "core/input_error.hpp"
 
@@ -122,6 +124,9 @@ struct BadDataset {
   const char* key;
   const char* message;
 };
+void PrintTo(const BadDataset& c, std::ostream* os) {
+  *os << c.folder << "/" << c.file << ":" << c.line << " " << c.key;
+}
 
 class DatasetErrors : public ::testing::TestWithParam<BadDataset> {};
 

@@ -4,6 +4,7 @@
 
 #include <cstring>
 #include <filesystem>
+#include <ostream>
 #include <random>
 
 #include "core/params_io.hpp"
@@ -146,6 +147,7 @@ struct BadParams {
   const char* key;
   const char* message;
 };
+void PrintTo(const BadParams& c, std::ostream* os) { *os << c.file << ":" << c.line << " " << c.key; }
 
 class ParamsIoErrors : public ::testing::TestWithParam<BadParams> {};
 

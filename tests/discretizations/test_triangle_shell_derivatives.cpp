@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <iostream>
+#include <ostream>
 #include <random>
 #include <vector>
 
@@ -175,6 +176,10 @@ struct DerivativeCase {
   StripEnds clamp_hinges = StripEnds::None;  // both: the clamp hinges' terms are checked too
   HingeModel hinge_model = HingeModel::Cylinders;
 };
+void PrintTo(const DerivativeCase& c, std::ostream* os) {
+  *os << to_string(c.pattern) << ", tau " << c.thickness_m << " m, clamp hinges "
+      << to_string(c.clamp_hinges) << ", " << to_string(c.hinge_model);
+}
 
 class TriangleShellDerivatives : public ::testing::TestWithParam<DerivativeCase> {
  protected:

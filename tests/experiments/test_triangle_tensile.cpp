@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <ostream>
 #include <string>
 
 #include "core/dataset.hpp"
@@ -78,6 +79,9 @@ struct AgreementCase {
   int across, along;
   double tolerance;
 };
+void PrintTo(const AgreementCase& c, std::ostream* os) {
+  *os << describe(c.strip, c.across, c.along) << ", tolerance " << c.tolerance;
+}
 
 class TriangleTensileReference : public ::testing::TestWithParam<AgreementCase> {};
 
@@ -94,8 +98,8 @@ INSTANTIATE_TEST_SUITE_P(
                       AgreementCase{{"poplin", "bias", 45}, 16, 24, 0.04},
                       // The cross pattern (both diagonals) does not lock in bias either: 1.13 %.
                       AgreementCase{{"canvas", "bias", 45, TrianglePattern::Cross}, 16, 24, 0.04}),
-    [](const auto& info) {
-      return info.param.strip.material + "_" + info.param.strip.label + "_" + to_string(info.param.strip.pattern);
+    [](const auto& param_info) {
+      return param_info.param.strip.material + "_" + param_info.param.strip.label + "_" + to_string(param_info.param.strip.pattern);
     });
 
 TEST(TriangleTensileRefinement, WarpWeftAndBiasConvergeFrom4x6To16x24) {

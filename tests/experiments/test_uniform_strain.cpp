@@ -15,6 +15,7 @@
 #include <functional>
 #include <limits>
 #include <numbers>
+#include <ostream>
 #include <string>
 #include <vector>
 
@@ -56,6 +57,7 @@ struct DerivativeCase {
   // and 67.5°, HeldShearIsStifferOffAxisAndEqualOnAxis) and in bias.
   const char* loaded_curve;
 };
+void PrintTo(const DerivativeCase& c, std::ostream* os) { *os << c.name; }
 
 std::string derivative_case_name(const ::testing::TestParamInfo<DerivativeCase>& info) {
   return info.param.name;
