@@ -344,6 +344,7 @@ EquilibriumSummary EquilibriumSolver::solve(Eigen::VectorXd* q) {
     dofs_.gather_fixed(gradient_, &g_c_);
     const double gradient_norm = max_abs(g_f_);
     const double force = force_scale();
+    const bool small_gradient = gradient_norm <= options_.gradient_tolerance * force;
     window_energy.push_back(psi);
     window_gradient.push_back(gradient_norm);
     if (window_energy.size() > window_size) {
@@ -361,7 +362,6 @@ EquilibriumSummary EquilibriumSolver::solve(Eigen::VectorXd* q) {
       direction_ = -direction_;
       slope = g_f_.dot(direction_);
       s.newton_decrement_J = -slope;
-      const bool small_gradient = gradient_norm <= options_.gradient_tolerance * force;
       const bool small_decrement = -slope <= options_.decrement_tolerance * force * length_scale_m_;
       spdlog::debug(
           "EquilibriumSolver: iteration {}: Ψ = {:.15e} J, |g_f| = {:.3e} N "
@@ -377,7 +377,7 @@ EquilibriumSummary EquilibriumSolver::solve(Eigen::VectorXd* q) {
       }
     } else {
       ++s.failed_factorizations;
-      if (gradient_norm <= options_.gradient_tolerance * force) {
+      if (small_gradient) {
         return finish(EquilibriumStatus::kIndefiniteStationary,
                       fmt::format("stationary point (|g_f|inf = {:.3e} N) where K_ff is not "
                                   "positive definite (column {}): not a minimum",
@@ -394,7 +394,6 @@ EquilibriumSummary EquilibriumSolver::solve(Eigen::VectorXd* q) {
     if (reason.empty() && !(slope < 0 && std::isfinite(slope))) {
       reason = fmt::format("ascent direction (g_f.d = {:.3e})", slope);
     }
-    const bool small_gradient = gradient_norm <= options_.gradient_tolerance * force;
     const auto converged_at_floor = [&](const std::string& evidence) {
       // K_ff at q is factorised; make the Hessian (and K_fc) belong to q as well.
       if (!hessian_at_q_) {

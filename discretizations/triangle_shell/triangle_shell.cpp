@@ -234,6 +234,24 @@ struct TriangleShell::Impl {
   }
   /// θ of angle a with optional gradient/Hessian (12; a clamp hinge's ghost block is unused).
   double angle(const Eigen::VectorXd& q, int a, Vector12* gradient, Matrix12* hessian) const;
+  /// θ of every angle (each once: a hinge enters up to ~9 faces), with ∇θ / ∇²θ when given.
+  void all_angles(const Eigen::VectorXd& q, std::vector<double>* theta,
+                  std::vector<Vector12>* dtheta, std::vector<Matrix12>* d2theta) const {
+    const auto na = static_cast<size_t>(num_angles());
+    theta->resize(na);
+    if (dtheta) dtheta->resize(na);
+    if (d2theta) d2theta->resize(na);
+    for_each_index(num_angles(), [&](int a) {
+      const auto u = static_cast<size_t>(a);
+      (*theta)[u] = angle(q, a, dtheta ? &(*dtheta)[u] : nullptr, d2theta ? &(*d2theta)[u] : nullptr);
+    });
+  }
+  /// Length of the flat per-(face, source) array indexed by face_source_start.
+  size_t num_face_sources() const {
+    const auto& faces = shape->faces();
+    return faces.empty() ? 0
+                         : static_cast<size_t>(face_source_start.back()) + faces.back().sources.size();
+  }
   /// Shape-operator bending: W_T of every face into face_energy (#faces); when given, its
   /// gradient is added to `gradient` and its Hessian to `hessian_values` (the pattern's
   /// value array).
@@ -813,20 +831,14 @@ void TriangleShell::Impl::shape_operator_pass(const Eigen::VectorXd& q,
   const int nf = static_cast<int>(faces.size());
   const bool derivatives = gradient || hessian_values;
   const auto au = static_cast<size_t>(na);
-  // 1. Every angle once (a hinge enters up to ~9 faces): θ, ∇θ, ∇²θ.
-  std::vector<double> theta(au);
-  std::vector<Vector12> dtheta(derivatives ? au : 0);
-  std::vector<Matrix12> d2theta(hessian_values ? au : 0);
-  for_each_index(na, [&](int a) {
-    const auto u = static_cast<size_t>(a);
-    theta[u] = angle(q, a, derivatives ? &dtheta[u] : nullptr,
-                     hessian_values ? &d2theta[u] : nullptr);
-  });
+  // 1. Every angle once: θ, ∇θ, ∇²θ.
+  std::vector<double> theta;
+  std::vector<Vector12> dtheta;
+  std::vector<Matrix12> d2theta;
+  all_angles(q, &theta, derivatives ? &dtheta : nullptr, hessian_values ? &d2theta : nullptr);
   // 2. Faces: s_m = E φ, W_T = s_mᵀ S s_m, ∂W_T/∂φ = 2 Eᵀ S s_m (φ = −θ).
   face_energy->assign(static_cast<size_t>(nf), 0.0);
-  const size_t num_sources =
-      nf == 0 ? 0 : static_cast<size_t>(face_source_start.back()) + faces.back().sources.size();
-  std::vector<double> dW(derivatives ? num_sources : 0, 0.0);
+  std::vector<double> dW(derivatives ? num_face_sources() : 0, 0.0);
   for_each_index(nf, [&](int f) {
     const auto fu = static_cast<size_t>(f);
     const ShapeOperatorBending::Face& face = faces[fu];
@@ -983,15 +995,11 @@ void TriangleShell::gradient_parameter_jacobian(const Eigen::VectorXd& q,
     // (shape_operator_bending.hpp (4): ∂S/∂p = Tᵀ ∂Q/∂p T).
     const int na = m.num_angles();
     const auto& faces = m.shape->faces();
-    std::vector<double> theta(static_cast<size_t>(na));
-    std::vector<Vector12> dtheta(static_cast<size_t>(na));
-    m.for_each_index(na, [&](int a) {
-      theta[static_cast<size_t>(a)] = m.angle(q, a, &dtheta[static_cast<size_t>(a)], nullptr);
-    });
-    const size_t num_sources =
-        faces.empty() ? 0
-                      : static_cast<size_t>(m.face_source_start.back()) + faces.back().sources.size();
-    std::vector<Eigen::Matrix<double, 1, 5>> dW(num_sources, Eigen::Matrix<double, 1, 5>::Zero());
+    std::vector<double> theta;
+    std::vector<Vector12> dtheta;
+    m.all_angles(q, &theta, &dtheta, nullptr);
+    std::vector<Eigen::Matrix<double, 1, 5>> dW(m.num_face_sources(),
+                                                Eigen::Matrix<double, 1, 5>::Zero());
     m.for_each_index(static_cast<int>(faces.size()), [&](int f) {
       const auto fu = static_cast<size_t>(f);
       const ShapeOperatorBending::Face& face = faces[fu];
