@@ -19,14 +19,28 @@ EquilibriumSensitivity::EquilibriumSensitivity(const EquilibriumSolver& solver,
     if (p < 0 || p >= flat)
       throw std::invalid_argument("EquilibriumSensitivity: parameter index " + std::to_string(p) +
                                   " outside the flat vector [0, " + std::to_string(flat) + ")");
-  const SparseMatrix& k_fc = solver.free_fixed_hessian();  // throws without a solution factor
-
   Eigen::MatrixXd dg_dk_all;
+  solver.free_fixed_hessian();  // throws without a solution factor, before the assembly
   disc.gradient_parameter_jacobian(q, &dg_dk_all);
-  const int m = num_parameters();
-  Eigen::MatrixXd dg_dk(disc.num_dofs(), m);
-  for (int j = 0; j < m; ++j) dg_dk.col(j) = dg_dk_all.col(parameters_[static_cast<size_t>(j)]);
+  Eigen::MatrixXd dg_dk(disc.num_dofs(), static_cast<Eigen::Index>(parameters_.size()));
+  for (size_t j = 0; j < parameters_.size(); ++j)
+    dg_dk.col(static_cast<Eigen::Index>(j)) = dg_dk_all.col(parameters_[j]);
+  solve(solver, dg_dk);
+}
 
+EquilibriumSensitivity::EquilibriumSensitivity(const EquilibriumSolver& solver,
+                                               const Eigen::MatrixXd& dg_dp)
+    : dofs_(solver.dofs()) {
+  if (dg_dp.rows() != solver.discretization().num_dofs())
+    throw std::invalid_argument("EquilibriumSensitivity: dg/dp has " + std::to_string(dg_dp.rows()) +
+                                " rows, the discretisation " +
+                                std::to_string(solver.discretization().num_dofs()) + " dofs");
+  solve(solver, dg_dp);
+}
+
+void EquilibriumSensitivity::solve(const EquilibriumSolver& solver, const Eigen::MatrixXd& dg_dk) {
+  const SparseMatrix& k_fc = solver.free_fixed_hessian();  // throws without a solution factor
+  const Eigen::Index m = dg_dk.cols();
   Eigen::MatrixXd rhs;
   dofs_.gather_free_rows(dg_dk, &rhs);
   rhs = -rhs;
@@ -35,14 +49,14 @@ EquilibriumSensitivity::EquilibriumSensitivity(const EquilibriumSolver& solver,
 
   // Diagnostic residual in double precision (the solve itself refines in extended precision).
   const SparseMatrix& k_ff = solver.free_free_hessian();
-  for (int j = 0; j < m; ++j) {
+  for (Eigen::Index j = 0; j < m; ++j) {
     const double scale = rhs.col(j).norm();
     if (scale > 0)
       relative_residual_ =
           std::max(relative_residual_, (k_ff * x.col(j) - rhs.col(j)).norm() / scale);
   }
 
-  dq_dk_.setZero(disc.num_dofs(), m);
+  dq_dk_.setZero(dg_dk.rows(), m);
   const std::vector<int>& free = dofs_.free_dofs();
   for (size_t i = 0; i < free.size(); ++i) dq_dk_.row(free[i]) = x.row(static_cast<Eigen::Index>(i));
 

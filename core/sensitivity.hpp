@@ -36,8 +36,11 @@ class EquilibriumSensitivity {
   /// std::invalid_argument for an index out of range or a q of the wrong size.
   EquilibriumSensitivity(const EquilibriumSolver& solver, const Eigen::VectorXd& q,
                          const std::vector<int>& parameters);
+  /// The same for any m quantities p the gradient depends on, given ∂g/∂p (#dofs × m) by the
+  /// caller (e.g. the material angle, experiments/tensile_test.hpp); parameters() is empty.
+  EquilibriumSensitivity(const EquilibriumSolver& solver, const Eigen::MatrixXd& dg_dp);
 
-  int num_parameters() const { return static_cast<int>(parameters_.size()); }
+  int num_parameters() const { return static_cast<int>(dq_dk_.cols()); }
   const std::vector<int>& parameters() const { return parameters_; }
 
   /// ∂q/∂k: #dofs × m [m per parameter unit]; rows of held dofs are zero.
@@ -58,6 +61,9 @@ class EquilibriumSensitivity {
   double relative_residual() const { return relative_residual_; }
 
  private:
+  /// Eq. 6 for the columns of dg_dk (#dofs × m): ∂q/∂k and the reactions' derivatives.
+  void solve(const EquilibriumSolver& solver, const Eigen::MatrixXd& dg_dk);
+
   const ConstrainedDofs& dofs_;
   std::vector<int> parameters_;
   Eigen::MatrixXd dq_dk_;

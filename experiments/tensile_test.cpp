@@ -66,6 +66,7 @@ TensileExperiment::TensileExperiment(const TensileSetup& setup, const Discretiza
                                      const MaterialParameters& parameters,
                                      const EquilibriumOptions& solver)
     : setup_(checked(setup)),
+      factory_(factory),
       discretization_(factory(setup.strip(), parameters)),
       moving_nodes_(discretization_->clamped_nodes(StripEnd::End, false)),
       fixed_dofs_(held_dofs(*discretization_, setup.planar)),
@@ -74,6 +75,30 @@ TensileExperiment::TensileExperiment(const TensileSetup& setup, const Discretiza
 
 void TensileExperiment::set_parameters(const MaterialParameters& parameters) {
   discretization_->set_parameters(parameters);
+  if (angle_plus_) angle_plus_->set_parameters(parameters);
+  if (angle_minus_) angle_minus_->set_parameters(parameters);
+}
+
+void TensileExperiment::set_angle_sensitivity(bool on) {
+  angle_plus_.reset();
+  angle_minus_.reset();
+  if (!on) return;
+  for (double sign : {1.0, -1.0}) {
+    StripSpec turned = setup_.strip();
+    turned.angle_deg += sign * kAngleStepDeg;
+    (sign > 0 ? angle_plus_ : angle_minus_) = factory_(turned, discretization_->parameters());
+    if ((sign > 0 ? angle_plus_ : angle_minus_)->num_dofs() != discretization_->num_dofs())
+      throw std::logic_error("angle sensitivity: the turned mesh has other dofs");
+  }
+}
+
+double TensileExperiment::force_angle_derivative(
+    const Eigen::VectorXd& q, const std::vector<std::pair<int, double>>& clamp_x) const {
+  Eigen::VectorXd plus, minus;
+  angle_plus_->energy(q, &plus, nullptr);
+  angle_minus_->energy(q, &minus, nullptr);
+  const Eigen::MatrixXd dg_dangle = (plus - minus) / (2 * kAngleStepDeg);
+  return EquilibriumSensitivity(solver_, dg_dangle).reaction_derivative(clamp_x)[0];
 }
 
 double TensileExperiment::force_from_gradient(const Eigen::VectorXd& gradient) const {
@@ -144,11 +169,12 @@ TensilePoint TensileExperiment::measure(double extension_mm, const Eigen::Vector
   p.force_N = force_from_gradient(solver_.gradient());
   p.lateral_strain = lateral_strain(q);
   p.solve = summary;
+  std::vector<std::pair<int, double>> clamp_x;
+  clamp_x.reserve(moving_nodes_.size());
+  for (int n : moving_nodes_) clamp_x.emplace_back(3 * n, 1.0);
+  if (angle_plus_) p.dforce_dangle = force_angle_derivative(q, clamp_x);
   if (!sensitivity_parameters_.empty()) {
     const EquilibriumSensitivity sens(solver_, q, sensitivity_parameters_);
-    std::vector<std::pair<int, double>> clamp_x;
-    clamp_x.reserve(moving_nodes_.size());
-    for (int n : moving_nodes_) clamp_x.emplace_back(3 * n, 1.0);
     p.dforce_dk = sens.reaction_derivative(clamp_x);
     p.dlateral_strain_dk = sens.observable_derivative(lateral_strain_gradient(q));
     if (keep_states_) p.dq_dk = sens.position_derivatives();

@@ -62,6 +62,8 @@ struct TensilePoint {
   /// empty when none are chosen.
   Eigen::VectorXd dforce_dk;
   Eigen::VectorXd dlateral_strain_dk;
+  /// dF/dθ [N per degree of material angle] with set_angle_sensitivity(true); 0 otherwise.
+  double dforce_dangle = 0;
   /// ∂q/∂k at this point (#dofs × m), kept only with keep_states (warm starts of later runs).
   Eigen::MatrixXd dq_dk;
   /// The equilibrium (#dofs), kept only with keep_states.
@@ -102,6 +104,12 @@ class TensileExperiment {
   /// (empty: none, the default). Throws std::invalid_argument for an index out of range.
   void set_sensitivity_parameters(const std::vector<int>& flat_indices);
   const std::vector<int>& sensitivity_parameters() const { return sensitivity_parameters_; }
+  /// Report dF/dθ per point, the total derivative of the clamp force in the material angle
+  /// (the validation offsets of paper §7): Eq. 6 with ∂g/∂θ by central differences of the
+  /// gradient of two copies of the mesh at θ ± kAngleStepDeg (same nodes, only the material
+  /// frame turns; truncation ~1e-10 and round-off ~1e-11 relative for this step).
+  void set_angle_sensitivity(bool on);
+  static constexpr double kAngleStepDeg = 1e-3;
   /// Keep each point's equilibrium and ∂q/∂k in the curve (memory: #dofs × (m + 1) per point).
   void set_keep_states(bool keep) { keep_states_ = keep; }
 
@@ -131,13 +139,18 @@ class TensileExperiment {
 
  private:
   TensileSetup setup_;
+  DiscretizationFactory factory_;
   std::unique_ptr<Discretization> discretization_;
+  std::unique_ptr<Discretization> angle_plus_, angle_minus_;  ///< at θ ± kAngleStepDeg
   std::vector<int> moving_nodes_;
   std::vector<int> fixed_dofs_;
   SparseMatrix lateral_probe_;
   EquilibriumSolver solver_;
   std::vector<int> sensitivity_parameters_;
   bool keep_states_ = false;
+  /// dF/dθ at the converged point q (set_angle_sensitivity).
+  double force_angle_derivative(const Eigen::VectorXd& q,
+                                const std::vector<std::pair<int, double>>& clamp_x) const;
   // Observables (and derivatives) of the converged point at q.
   TensilePoint measure(double extension_mm, const Eigen::VectorXd& q,
                        const EquilibriumSummary& summary) const;

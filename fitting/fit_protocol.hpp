@@ -29,13 +29,21 @@
 //      sampled on the finest level's simulated strips at the largest measured extension; levels are
 //      `resolution.coarse_cells_across` [8] × gauge/width·that along, doubled
 //      `resolution.levels` − 1 [2] times (8×12 → 16×24 → 32×48 for 75 mm gauges,
-//      8×24 → 16×48 → 32×96 for 150 mm);
+//      8×24 → 16×48 → 32×96 for 150 mm); per stage, the change of every fitted entry, of
+//      the membrane stiffness and of the membrane response between successive levels is
+//      reported (the fit's own estimate of its discretisation error), and a stage whose
+//      response changed by less than `resolution.change_tolerance` [3 %] skips the finer
+//      levels, while one that still changes by more at the last level gets up to
+//      `resolution.extra_levels` [1] more;
 //   7. bend (§5.2 step 7): thickness τ from the cantilever chord angles at the measured
 //      overhangs, with a ← a·τ0/τ so the tensile fits are unchanged;
 //   8. validation (§7): per validation run at the finest level, the angle offset Δθ
-//      minimising its error: samples at 0, ±`validation.offset_step_deg` [1°] and the minimiser
-//      of the parabola through them (within ±`validation.max_offset_deg` [10°]); the error
-//      with the best offset and without any are reported.
+//      minimising its error by a 1-D Newton search with the exact dF/dθ, at most
+//      `validation.offset_iterations` [3] steps, each minimising the linearised error exactly,
+//      within ±`validation.max_offset_deg` [10°] and rounded to
+//      `validation.offset_resolution_deg` [0.05°]; the error with the best offset and without
+//      any are reported.
+#include <Eigen/Core>
 #include <functional>
 #include <map>
 #include <string>
@@ -81,6 +89,25 @@ struct FitStageRecord {
   double wall_time_s = 0;
 };
 
+/// The discretisation error the fit states about itself: one stage's parameters at two
+/// successive levels of the resolution ladder (docs/fitting.md, "Resolution ladder").
+struct FitRefinement {
+  struct Change {
+    std::string name;  ///< flat-entry name (parameters.hpp) or "tau_a11_N_per_m", ...
+    double from = 0, to = 0;
+    double relative = 0;  ///< |to − from| / |to|
+  };
+  std::string stage;
+  std::string from_resolution, to_resolution;
+  std::vector<Change> changes;  ///< every fitted entry of the stage, then its membrane stiffness
+  /// The decision quantity: the largest relative change of the stage's membrane stress
+  /// τ·σ(E) (τ a E η'(E²), or 2 τ G12 E η4'(E²) for the shear) over strains up to the stage's
+  /// cutoff, and the strain where it is largest.
+  double response_change = 0;
+  double response_strain = 0;
+  std::string decision;  ///< what the ladder did next, in words
+};
+
 struct FitBend {
   std::string label;
   double angle_deg = 0;
@@ -101,12 +128,18 @@ struct FitReport {
   MaterialParameters parameters;
   std::vector<FitInitialGuess> initial_guess;
   std::vector<FitStageRecord> stages;
+  std::vector<FitRefinement> refinement;  ///< per stage and finer level, in fit order
+  std::string finest_resolution;          ///< where the final curves and validation ran
   std::vector<FitCurve> fit;
   std::vector<FitBend> bend;
   std::vector<FitCurve> validation;
   std::vector<std::pair<std::string, double>> timing_s;  ///< per stage, then "total"
   std::vector<std::string> notes;  ///< choices made on the way (repeats, cutoffs, degrees)
 };
+
+/// argmin over t of Σ_i |f_i + t d_i − m_i| (the validation offset's linearised step; a
+/// weighted median). 0 when every d_i is 0. Exposed for its test.
+double linearised_l1_minimiser(const Eigen::VectorXd& f, const Eigen::VectorXd& d, const Eigen::VectorXd& m);
 
 /// Runs the protocol. Throws InputError for a dataset the protocol cannot use (e.g. no warp
 /// test) and std::runtime_error when a stage fails outright (the message names the stage).

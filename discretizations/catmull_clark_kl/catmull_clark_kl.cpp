@@ -37,6 +37,11 @@ std::pair<std::string, std::string> first_invalid_option(const CatmullClarkKLOpt
   // One point (the mid-surface) would drop the bending energy entirely.
   if (o.thickness_points < 2 || o.thickness_points > 64)
     return bad("thickness_points", "in [2, 64] (one point loses all bending)", o.thickness_points);
+  // The linear modes of a projection need two points per direction to have a norm.
+  if (projection_modes(o.fibre_strain) > 1 && o.gauss_points_per_direction < 2)
+    return bad("gauss_points_per_direction",
+               std::string(">= 2 for fibre_strain=") + fibre_strain_name(o.fibre_strain),
+               o.gauss_points_per_direction);
   if (o.threads < 0) return bad("threads", ">= 0 (0 = TBB's choice)", o.threads);
   if (o.surface_samples_per_face < 1 || o.surface_samples_per_face > 64)
     return bad("surface_samples_per_face", "in [1, 64]", o.surface_samples_per_face);
@@ -329,6 +334,7 @@ FaceQuadrature CatmullClarkKL::face_quadrature(int face) const {
   quadrature.jet_basis =
       mesh.jet_basis.data() + static_cast<std::size_t>(mesh.face_table[static_cast<size_t>(face)] * npf);
   quadrature.reference = mesh.reference.data() + static_cast<std::size_t>(face * npf);
+  quadrature.gauss_uv = mesh.gauss_uv.data();
   quadrature.fibre_strain = options_.fibre_strain;
   return quadrature;
 }

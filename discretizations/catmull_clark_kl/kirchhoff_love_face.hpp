@@ -8,14 +8,19 @@
 // control point k; the jet of a point is y = (D ⊗ I₃) x with D the 5 × 16 derivative rows of the
 // basis (rows 1–5 of PatchBasis::weights).
 //
-// Fibre-strain projection (FibreStrain::FaceMean, an option; the default is decided and argued
-// in docs/catmull_clark_kl.md §12): the fibre stretches Ẽ11, Ẽ22 of the mid-surface are replaced
-// at every Gauss point of the face by their area-weighted face mean (the L² projection onto
-// constants per face, a B-bar method in the sense of Hughes 1980 / Elguedj et al. 2008), while
-// the shear Ẽ12 and the bending strain keep their pointwise values. The energy stays a function
-// of the control points, so its gradient, Hessian and ∂g/∂k are exact derivatives of it.
+// Fibre-strain projection (FibreStrain, an option; the default is decided by measurement in
+// docs/catmull_clark_kl.md §12): the fibre stretches Ẽ11, Ẽ22 of the mid-surface are replaced
+// at every Gauss point of the face by their L² projection (area-weighted over the face's Gauss
+// points) onto a small polynomial space in the face parameters (u, v): constants (FaceMean),
+// {1, u, v} (FaceLinear) or {1, u, v, uv} (FaceBilinear). This is a selective B-bar method
+// (Hughes 1980; Elguedj et al. 2008 for splines) applied to the two stiff fibre strains in the
+// material frame; the shear Ẽ12 and the bending strain keep their pointwise values. The energy
+// stays a function of the control points, so its gradient, Hessian and ∂g/∂k are exact
+// derivatives of it. Constants are in every space, so uniform strain is still exact.
 #include <Eigen/Core>
 #include <array>
+#include <string>
+#include <utility>
 
 #include "core/material_law.hpp"
 #include "discretizations/catmull_clark_kl/gauss_legendre.hpp"
@@ -25,9 +30,20 @@ namespace twill {
 
 /// How the membrane fibre stretches enter the energy at the Gauss points of a face.
 enum class FibreStrain {
-  Pointwise,  ///< every Gauss point its own strain (paper §6.3)
-  FaceMean,   ///< Ẽ11, Ẽ22 replaced by their face mean (B-bar; see the header comment)
+  Pointwise,     ///< every Gauss point its own strain (paper §6.3)
+  FaceMean,      ///< Ẽ11, Ẽ22 projected onto constants per face (1 mode)
+  FaceLinear,    ///< ... onto {1, u, v} per face (3 modes)
+  FaceBilinear,  ///< ... onto {1, u, v, uv} per face (4 modes)
 };
+
+/// Modes of the projection space (0 for Pointwise: no projection).
+int projection_modes(FibreStrain fibre_strain);
+/// Every treatment with its option name, in enum order: the one list the option schema, the
+/// parser and the tests use.
+const std::array<std::pair<FibreStrain, const char*>, 4>& fibre_strain_names();
+/// The treatment called `name`; throws std::invalid_argument naming the known ones.
+FibreStrain fibre_strain_from_name(const std::string& name);
+const char* fibre_strain_name(FibreStrain fibre_strain);
 
 using FaceCoordinates = Eigen::Matrix<double, 16, 3>;  ///< row k: control point k [m]
 using JetBasis = Eigen::Matrix<double, 16, 5>;         ///< Dᵀ: column r = jet row r's weights
@@ -50,6 +66,7 @@ struct FaceQuadrature {
   int points_per_face = 0;
   const JetBasis* jet_basis = nullptr;          ///< per point, Dᵀ (16 × 5)
   const ReferencePoint* reference = nullptr;    ///< per point
+  const Eigen::Vector2d* gauss_uv = nullptr;    ///< per point, (u, v) in [0, 1]² of the face
   FibreStrain fibre_strain = FibreStrain::Pointwise;
 };
 
@@ -61,7 +78,7 @@ double kirchhoff_love_face(const MaterialLaw& law, double thickness_m,
                            FaceHessianBlocks* hessian);
 
 /// The orthotropic strains (e_m, e_b) every Gauss point of the face hands to the law, i.e. with
-/// the FaceMean projection applied; `strains` addresses points_per_face entries.
+/// the fibre-strain projection applied; `strains` addresses points_per_face entries.
 void kirchhoff_love_face_strains(const FaceQuadrature& face, const FaceCoordinates& X,
                                  Vector6* strains);
 

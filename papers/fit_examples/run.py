@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Fit every example dataset with every optimiser and check issue #6's acceptance bars.
+"""Fit every example dataset with every optimiser and check the acceptance bars (issues #6, #12).
 
 Usage: run.py TWILL_BINARY EXAMPLES_DIR OUTPUT_DIR [--optimizers bfgs,...] [--set KEY=VALUE ...]
 
@@ -10,8 +10,9 @@ and writes OUTPUT_DIR/summary.md: per fit the average relative errors (warp/weft
 run), the membrane stiffnesses tau*a11, tau*a22, tau*G12 relative to the truth, the drape
 angles, the validation errors with their offsets, and the wall time; each acceptance bar is
 marked pass/FAIL:
-  fit error <= 2 % warp/weft, <= 4 % bias; tau*a11, tau*a22 within 3 %, tau*G12 within 10 %;
-  both drape angles within 1 deg of 41.5.
+  fit error <= 2 % warp/weft, <= 4 % bias; tau*a11, tau*a22 within 2 %, tau*G12 within 5 %
+  (issue #12 tightened them from 3 % and 10 % with the locking-free default); both drape
+  angles within 1 deg of 41.5.
 """
 import argparse
 import json
@@ -19,6 +20,9 @@ import os
 import subprocess
 import sys
 import time
+
+STIFFNESS_BAR = 0.02  # tau*a11, tau*a22 relative to the truth (issue #12)
+SHEAR_BAR = 0.05      # tau*G12 (issue #12; was 0.10 while the default locked off-axis)
 
 
 def read_truth(path):
@@ -83,7 +87,7 @@ def main() -> int:
             val = report["validation"]
             bars = {
                 "fit": worst.get("warp", 1) <= 0.02 and worst.get("weft", 1) <= 0.02 and worst.get("bias", 1) <= 0.04,
-                "stiffness": abs(rel["a11_Pa"]) <= 0.03 and abs(rel["a22_Pa"]) <= 0.03 and abs(rel["G12_Pa"]) <= 0.10,
+                "stiffness": abs(rel["a11_Pa"]) <= STIFFNESS_BAR and abs(rel["a22_Pa"]) <= STIFFNESS_BAR and abs(rel["G12_Pa"]) <= SHEAR_BAR,
                 "drape": len(drape) > 0 and all(abs(d - 41.5) <= 1.0 for d in drape),
             }
             val_text = ", ".join(f"{c['label']} {100 * c['avg_rel_error']:.1f} % ({c['delta_theta_deg']:+.1f}°)"

@@ -16,7 +16,10 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <random>
+#include <string>
+#include <vector>
 
 #include "core/input_error.hpp"
 #include "core/material_law.hpp"
@@ -119,6 +122,13 @@ CatmullClarkKLOptions two_threads() {
   return o;
 }
 
+/// Every fibre-strain treatment the option accepts (the one list in kirchhoff_love_face).
+std::vector<FibreStrain> all_fibre_strains() {
+  std::vector<FibreStrain> all;
+  for (const auto& [value, name] : fibre_strain_names()) all.push_back(value);
+  return all;
+}
+
 /// Two threads, and the fibre-strain treatment under test.
 CatmullClarkKLOptions two_threads(FibreStrain fibre_strain) {
   CatmullClarkKLOptions o = two_threads();
@@ -216,8 +226,8 @@ TEST(CatmullClarkKLOptions, ValidateNamesTheOffendingField) {
 }
 
 TEST(CatmullClarkKL, MeshLayoutAndRestState) {
-  for (FibreStrain fibre_strain : {FibreStrain::Pointwise, FibreStrain::FaceMean}) {
-  SCOPED_TRACE(fibre_strain == FibreStrain::Pointwise ? "pointwise" : "face-mean");
+  for (FibreStrain fibre_strain : all_fibre_strains()) {
+  SCOPED_TRACE(fibre_strain_name(fibre_strain));
   CatmullClarkKLOptions options;
   options.fibre_strain = fibre_strain;
   const CatmullClarkKL d(small_strip(90), canvas_stvk(), options);
@@ -242,7 +252,7 @@ TEST(CatmullClarkKL, MeshLayoutAndRestState) {
 }
 
 TEST(CatmullClarkKL, PatchTestUniformStretchIsExactAtEveryAngle) {
-  for (FibreStrain fibre_strain : {FibreStrain::Pointwise, FibreStrain::FaceMean})
+  for (FibreStrain fibre_strain : all_fibre_strains())
   for (double angle : {0.0, 22.5, 45.0, 67.5, 90.0}) {
     const MaterialParameters parameters = canvas_nonlinear();
     const CatmullClarkKL d(small_strip(angle), parameters, two_threads(fibre_strain));
@@ -272,42 +282,63 @@ TEST(CatmullClarkKL, PatchTestUniformStretchIsExactAtEveryAngle) {
   }
 }
 
-TEST(CatmullClarkKL, FaceMeanReplacesOnlyTheFibreStretchesByTheirFaceMean) {
-  // docs/catmull_clark_kl.md §12: with FibreStrain::FaceMean the law sees, at every Gauss
-  // point of a face, the area-weighted face mean of Ẽ11 and Ẽ22 (on this affine grid |A1×A2|
-  // is constant, so the weights are the tensor Gauss weights, point p = ng·b + a) and the
-  // point's own Ẽ12 and bending strain.
-  CatmullClarkKLOptions pointwise, mean;
-  mean.fibre_strain = FibreStrain::FaceMean;
-  const CatmullClarkKL a(small_strip(30), canvas_nonlinear(), pointwise);
-  const CatmullClarkKL b(small_strip(30), canvas_nonlinear(), mean);
-  const VectorXd q = distorted_state(a);
-  const auto own = a.quadrature_strains(q), seen = b.quadrature_strains(q);
-  ASSERT_EQ(own.size(), seen.size());
-  const size_t per_face = own.size() / static_cast<size_t>(a.num_faces());
-  double spread = 0.0;  // how much Ẽ11 varies inside a face: the projection must remove it
-  for (size_t face = 0; face < static_cast<size_t>(a.num_faces()); ++face) {
+TEST(CatmullClarkKL, ProjectionReplacesOnlyTheFibreStretchesByTheirFaceProjection) {
+  // docs/catmull_clark_kl.md §12: with a projecting FibreStrain the law sees, at every Gauss
+  // point of a face, the weighted least-squares fit of Ẽ11 and Ẽ22 over the face's points by
+  // the space's polynomials in (u, v) (on this affine grid |A1×A2| is constant, so the weights
+  // are the tensor Gauss weights, point p = ng·b + a), and the point's own Ẽ12 and bending
+  // strain. The fit is computed here independently, by a normal-equation solve.
+  const std::map<FibreStrain, int> modes = {{FibreStrain::FaceMean, 1}, {FibreStrain::FaceLinear, 3},
+                                            {FibreStrain::FaceBilinear, 4}};
+  for (FibreStrain fibre_strain : all_fibre_strains()) {
+    if (fibre_strain == FibreStrain::Pointwise) continue;
+    SCOPED_TRACE(fibre_strain_name(fibre_strain));
+    ASSERT_EQ(projection_modes(fibre_strain), modes.at(fibre_strain));
+    CatmullClarkKLOptions pointwise, projected;
+    pointwise.fibre_strain = FibreStrain::Pointwise;
+    projected.fibre_strain = fibre_strain;
+    const CatmullClarkKL a(small_strip(30), canvas_nonlinear(), pointwise);
+    const CatmullClarkKL b(small_strip(30), canvas_nonlinear(), projected);
+    const VectorXd q = distorted_state(a);
+    const auto own = a.quadrature_strains(q), seen = b.quadrature_strains(q);
+    ASSERT_EQ(own.size(), seen.size());
+    const size_t per_face = own.size() / static_cast<size_t>(a.num_faces());
     const GaussLegendreRule rule = GaussLegendreRule::make(a.options().gauss_points_per_direction);
     const size_t ng = rule.nodes.size();
     ASSERT_EQ(ng * ng, per_face);
-    Eigen::Vector2d average = Eigen::Vector2d::Zero();
-    for (size_t p = 0; p < per_face; ++p)
-      average += 0.25 * rule.weights[p % ng] * rule.weights[p / ng] * own[face * per_face + p].membrane.head<2>();
+    const int m = modes.at(fibre_strain);
+    Eigen::MatrixXd P(per_face, m);  // the space's polynomials at the points
+    VectorXd w(per_face);
     for (size_t p = 0; p < per_face; ++p) {
-      const auto& o = own[face * per_face + p];
-      const auto& s = seen[face * per_face + p];
-      spread = std::max(spread, std::abs(o.membrane[0] - average[0]));
-      EXPECT_LT((s.membrane.head<2>() - average).cwiseAbs().maxCoeff(), 1e-15);
-      EXPECT_EQ(s.membrane[2], o.membrane[2]);
-      EXPECT_EQ(s.bending, o.bending);
+      const double u = 0.5 * (1 + rule.nodes[p % ng]), v = 0.5 * (1 + rule.nodes[p / ng]);
+      const double row[4] = {1.0, u, v, u * v};
+      for (int k = 0; k < m; ++k) P(static_cast<Eigen::Index>(p), k) = row[k];
+      w[static_cast<Eigen::Index>(p)] = 0.25 * rule.weights[p % ng] * rule.weights[p / ng];
     }
+    const Eigen::MatrixXd normal = P.transpose() * w.asDiagonal() * P;
+    double spread = 0.0, residual = 0.0;  // how far Ẽ11 is from the space: the projection must remove it
+    for (size_t face = 0; face < static_cast<size_t>(a.num_faces()); ++face) {
+      Eigen::MatrixXd fibre(per_face, 2);
+      for (size_t p = 0; p < per_face; ++p)
+        fibre.row(static_cast<Eigen::Index>(p)) = own[face * per_face + p].membrane.head<2>().transpose();
+      const Eigen::MatrixXd fitted = P * normal.ldlt().solve(P.transpose() * w.asDiagonal() * fibre);
+      for (size_t p = 0; p < per_face; ++p) {
+        const auto& o = own[face * per_face + p];
+        const auto& s = seen[face * per_face + p];
+        spread = std::max(spread, std::abs(o.membrane[0] - fitted(static_cast<Eigen::Index>(p), 0)));
+        residual = std::max(residual, (s.membrane.head<2>().transpose() - fitted.row(static_cast<Eigen::Index>(p))).cwiseAbs().maxCoeff());
+        EXPECT_EQ(s.membrane[2], o.membrane[2]);
+        EXPECT_EQ(s.bending, o.bending);
+      }
+    }
+    EXPECT_LT(residual, 1e-14);
+    EXPECT_GT(spread, 1e-6);  // the state is not in the space, so the check above has teeth
+    EXPECT_NE(a.energy(q, nullptr, nullptr), b.energy(q, nullptr, nullptr));
   }
-  EXPECT_GT(spread, 1e-4);  // the state does vary inside faces, so the check above has teeth
-  EXPECT_NE(a.energy(q, nullptr, nullptr), b.energy(q, nullptr, nullptr));
 }
 
 TEST(CatmullClarkKL, RigidMotionInvariance) {
-  for (FibreStrain fibre_strain : {FibreStrain::Pointwise, FibreStrain::FaceMean}) {
+  for (FibreStrain fibre_strain : all_fibre_strains()) {
   const CatmullClarkKL d(small_strip(30), canvas_nonlinear(), two_threads(fibre_strain));
   const VectorXd q = distorted_state(d);
   const Eigen::Matrix3d R =
@@ -328,8 +359,8 @@ TEST(CatmullClarkKL, RigidMotionInvariance) {
   }
 }
 
-// Every derivative check runs for both fibre-strain treatments: the face-mean projection
-// couples all Gauss points of a face (docs/catmull_clark_kl.md §12), so its Hessian and ∂g/∂k
+// Every derivative check runs for every fibre-strain treatment: a projection couples all
+// Gauss points of a face (docs/catmull_clark_kl.md §12), so its Hessian and ∂g/∂k
 // have terms the pointwise energy does not.
 class CatmullClarkKLDerivatives : public ::testing::TestWithParam<FibreStrain> {
  protected:
@@ -516,9 +547,11 @@ TEST_P(CatmullClarkKLDerivatives, HessianPatternIsReusedAndAssemblyStrategiesAgr
 }
 
 INSTANTIATE_TEST_SUITE_P(FibreStrain, CatmullClarkKLDerivatives,
-                         ::testing::Values(FibreStrain::Pointwise, FibreStrain::FaceMean),
+                         ::testing::ValuesIn(all_fibre_strains()),
                          [](const auto& param) {
-                           return param.param == FibreStrain::Pointwise ? "Pointwise" : "FaceMean";
+                           std::string name = fibre_strain_name(param.param);
+                           std::replace(name.begin(), name.end(), '-', '_');
+                           return name;
                          });
 
 TEST(CatmullClarkKL, ThroughThicknessQuadratureIsExactForStVKAndConvergesOtherwise) {

@@ -87,15 +87,22 @@ void compare(const std::string& what, double analytic, double fd_h, double fd_h2
                        << " (FD self-difference " << fd_error << ")";
 }
 
-class TensileSensitivity : public ::testing::TestWithParam<std::tuple<std::string, double>> {};
+class TensileSensitivity : public ::testing::TestWithParam<std::tuple<std::string, double>> {
+ protected:
+  /// The coarse strip both tests solve, at the parameterised angle.
+  static TensileSetup strip(double angle_deg) {
+    TensileSetup setup;
+    setup.angle_deg = angle_deg;
+    setup.cells_across = 4;
+    setup.cells_along = 6;
+    return setup;
+  }
+  const std::vector<double> extensions = {1.0, 3.0, 6.0};
+};
 
 TEST_P(TensileSensitivity, MatchesFiniteDifferencesOfResolves) {
   const auto [disc, angle] = GetParam();
-  TensileSetup setup;
-  setup.angle_deg = angle;
-  setup.cells_across = 4;
-  setup.cells_along = 6;
-  const std::vector<double> extensions = {1.0, 3.0, 6.0};
+  const TensileSetup setup = strip(angle);
   const MaterialParameters base = poplin();
   const std::vector<Kind> kinds = parameter_kinds(base);
   std::vector<int> indices;
@@ -146,6 +153,37 @@ TEST_P(TensileSensitivity, MatchesFiniteDifferencesOfResolves) {
               lateral.total, lateral.worst);
   EXPECT_GE(force.counted, force.total * 3 / 4);
   EXPECT_GE(lateral.counted, lateral.total * 3 / 4);
+}
+
+TEST_P(TensileSensitivity, AngleDerivativeMatchesFiniteDifferencesOfResolves) {
+  // dF/dθ (TensileExperiment::set_angle_sensitivity: Eq. 6 with ∂g/∂θ from two turned copies
+  // of the mesh), the derivative the validation offsets of paper §7 are solved with, against
+  // central differences of whole re-solves at θ ± h and θ ± h/2.
+  const auto [disc, angle] = GetParam();
+  const TensileSetup setup = strip(angle);
+  TensileExperiment experiment(setup, factory_for(disc), poplin(), tight_solver());
+  experiment.set_angle_sensitivity(true);
+  const TensileCurve curve = experiment.run(extensions);
+  ASSERT_TRUE(curve.completed) << curve.message;
+  auto rerun = [&](double offset_deg) {
+    TensileSetup turned = setup;
+    turned.angle_deg += offset_deg;
+    TensileCurve c = TensileExperiment(turned, factory_for(disc), poplin(), tight_solver()).run(extensions);
+    EXPECT_TRUE(c.completed) << c.message;
+    return c;
+  };
+  const double h = 0.02;  // degrees
+  const TensileCurve plus = rerun(h), minus = rerun(-h), plus2 = rerun(h / 2), minus2 = rerun(-h / 2);
+  Comparison force;
+  for (size_t i = 0; i < extensions.size(); ++i) {
+    const double scale = std::abs(curve.points[i].force_N);  // per degree
+    compare(disc + " " + std::to_string(angle) + "° dF/dθ at " + std::to_string(extensions[i]) + " mm",
+            curve.points[i].dforce_dangle, (plus.points[i].force_N - minus.points[i].force_N) / (2 * h),
+            (plus2.points[i].force_N - minus2.points[i].force_N) / h, scale, &force);
+  }
+  std::printf("[measured] %s %.0f°: dF/dtheta %d/%d compared (worst rel %.2e)\n", disc.c_str(), angle,
+              force.counted, force.total, force.worst);
+  EXPECT_EQ(force.counted, force.total);
 }
 
 INSTANTIATE_TEST_SUITE_P(

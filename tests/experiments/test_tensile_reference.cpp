@@ -1,10 +1,14 @@
 // Tensile strips on the Catmull–Clark Kirchhoff–Love shell against the independent planar
 // membrane references of ../shared/data/reference/ (README there: converged to ~0.1 % for
-// warp/weft, Richardson-extrapolated for the off-axis angles), and their convergence under
-// refinement 8×12 → 16×24 → 32×48.
+// warp/weft; off-axis recomputed on 2026-12-01 to convergence, Richardson with the observed
+// order ≈ 1.1), and their convergence under refinement 8×12 → 16×24 → 32×48. The default
+// fibre-strain treatment is the face-mean projection (docs/catmull_clark_kl.md §12); the
+// paper's pointwise 4 × 4 treatment locks off-axis, which one case below keeps in view.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <map>
 #include <ostream>
 #include <string>
@@ -29,17 +33,20 @@ void PrintTo(const Case& c, std::ostream* os) {
   *os << c.material << " " << c.label << " (" << c.angle_deg << " deg, tolerance " << c.tolerance << ")";
 }
 
-DiscretizationFactory catmull_clark() {
-  return [](const StripSpec& s, const MaterialParameters& p) -> std::unique_ptr<Discretization> {
-    return std::make_unique<CatmullClarkKL>(s, p);
+DiscretizationFactory catmull_clark(FibreStrain fibre_strain) {
+  return [fibre_strain](const StripSpec& s, const MaterialParameters& p) -> std::unique_ptr<Discretization> {
+    CatmullClarkKLOptions options;
+    options.fibre_strain = fibre_strain;
+    return std::make_unique<CatmullClarkKL>(s, p, options);
   };
 }
 
-/// Simulated force at every reference extension, at a resolution (cached: several tests
-/// share the 32×48 curves).
-const TensileCurve& simulate(const Case& c, int across, int along) {
+/// Simulated force at every reference extension, at a resolution, with the default fibre
+/// strain unless told (cached: several tests share the 32×48 curves).
+const TensileCurve& simulate(const Case& c, int across, int along,
+                             FibreStrain fibre_strain = CatmullClarkKLOptions{}.fibre_strain) {
   static std::map<std::string, TensileCurve> cache;
-  const std::string key = c.material + c.label + std::to_string(across);
+  const std::string key = c.material + c.label + std::to_string(across) + fibre_strain_name(fibre_strain);
   if (auto it = cache.find(key); it != cache.end()) return it->second;
   const MaterialParameters p = read_params_file(kReference + c.material + "/params.yaml");
   const TensileRun ref = read_tensile_run_csv(kReference + c.material + "/tensile-" + c.label + ".csv");
@@ -47,7 +54,7 @@ const TensileCurve& simulate(const Case& c, int across, int along) {
   setup.angle_deg = c.angle_deg;
   setup.cells_across = across;
   setup.cells_along = along;
-  TensileExperiment experiment(setup, catmull_clark(), p);
+  TensileExperiment experiment(setup, catmull_clark(fibre_strain), p);
   return cache[key] = experiment.run(ref.extension_mm);
 }
 
@@ -76,27 +83,36 @@ TEST_P(TensileReference, AgreesAt32x48) {
   EXPECT_LT(worst, c.tolerance);
 }
 
-INSTANTIATE_TEST_SUITE_P(
-    Canvas, TensileReference,
-    ::testing::Values(Case{"canvas", "warp", 90, 0.02}, Case{"canvas", "weft", 0, 0.02},
-                      Case{"canvas", "bias", 45, 0.04}, Case{"canvas", "a22.5", 22.5, 0.04},
-                      Case{"canvas", "a67.5", 67.5, 0.04}),
-    [](const auto& param_info) { return param_info.param.material + "_" + (param_info.param.label == "a22.5" ? "a22_5" : param_info.param.label == "a67.5" ? "a67_5" : param_info.param.label); });
+// The bars (2 % warp/weft, 4 % off-axis at every point above 1 N), all ten curves, at
+// the paper's 32×48. Measured with the face-mean default (2026-12-01, corrected references):
+// canvas −0.09 / −0.10 / −1.21 / … %, poplin −0.08 / −0.10 / −2.0 / … % (docs §12 table).
+std::string case_name(const ::testing::TestParamInfo<Case>& info) {
+  std::string label = info.param.label;
+  std::replace(label.begin(), label.end(), '.', '_');
+  return info.param.material + "_" + label;
+}
 
-// Poplin (G12 = 150 kPa, 367x softer than a11): warp, weft and 22.5° (+3.50 %) meet the
-// issue's targets at 32x48; bias (+6.04 %) and 67.5° (+4.02 %) do not, measured 2026-11-22 and
-// not hidden by a wider tolerance. Both are too stiff and converge at order ~1.1-1.4 (bias
-// +18.5 / +6.04 / +0.34 % at 16x24 / 32x48 / 64x96, worst -1.22 % at 64x96), the signature of
-// fibre-inextensibility locking plus the boundary layer of the C² basis at the clamp corners
-// (docs/catmull_clark_kl.md §7, §12; papers/catmull_clark_bias). Within 4 % needs 64x96, too
-// slow for this suite; their convergence is asserted below instead. Note that the converged
-// bias limit is itself 4.7-5.0 % below the reference above 1 N (bracketed by 128x192 and the
-// face-mean option, agreeing with the triangle shell): the 4 % band is crossed, not approached.
-INSTANTIATE_TEST_SUITE_P(
-    Poplin, TensileReference,
-    ::testing::Values(Case{"poplin", "warp", 90, 0.02}, Case{"poplin", "weft", 0, 0.02},
-                      Case{"poplin", "a22.5", 22.5, 0.04}),
-    [](const auto& param_info) { return param_info.param.material + "_" + (param_info.param.label == "a22.5" ? "a22_5" : param_info.param.label); });
+const auto kAllCurves = [](const std::string& material) {
+  return ::testing::Values(Case{material, "warp", 90, 0.02}, Case{material, "weft", 0, 0.02},
+                           Case{material, "bias", 45, 0.04}, Case{material, "a22.5", 22.5, 0.04},
+                           Case{material, "a67.5", 67.5, 0.04});
+};
+INSTANTIATE_TEST_SUITE_P(Canvas, TensileReference, kAllCurves("canvas"), case_name);
+INSTANTIATE_TEST_SUITE_P(Poplin, TensileReference, kAllCurves("poplin"), case_name);
+
+TEST(TensileReferenceLocking, PointwiseFibreStrainLocksInBias) {
+  // Why the default is not the paper's 4 × 4 pointwise evaluation (docs §12): with the fibres
+  // 367× stiffer than the shear (poplin) it is far too stiff at 32×48 in bias (measured
+  // +11.6 %), while the face-mean default is within the 4 % bar on the same mesh.
+  const Case c{"poplin", "bias", 45, 0.04};
+  const TensileCurve& pointwise = simulate(c, 32, 48, FibreStrain::Pointwise);
+  const TensileCurve& mean = simulate(c, 32, 48, FibreStrain::FaceMean);
+  ASSERT_TRUE(pointwise.completed && mean.completed);
+  const double locked = worst_relative_error(c, pointwise), relieved = worst_relative_error(c, mean);
+  std::printf("[measured] poplin bias 32x48: pointwise %.2f %%, face-mean %.2f %%\n", 100 * locked, 100 * relieved);
+  EXPECT_GT(locked, 2 * c.tolerance);
+  EXPECT_LT(relieved, c.tolerance);
+}
 
 class TensileRefinement : public ::testing::TestWithParam<Case> {};
 

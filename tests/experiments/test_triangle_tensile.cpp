@@ -1,11 +1,11 @@
 // Tensile strips on the triangle shell (issue #4) against the independent planar-membrane
 // references of ../shared/data/reference/ (README there: warp/weft converged to ~0.1 %,
-// off-axis Richardson-extrapolated, "well inside" 2 %), their convergence under refinement,
+// off-axis recomputed to convergence on 2026-12-01), their convergence under refinement,
 // and the effect of the diagonal pattern on the bias strip (constant-strain triangles lock when
 // stiff fibres cross the triangles' edges; docs/triangle_shell.md §9).
 //
-// Cheap on purpose (CI budget): resolutions up to 16×24 except the locking and irregular
-// refinement rows (32×48, ~2 s each). The full study up to 64×96 for every pattern is
+// Cheap on purpose (CI budget): resolutions up to 16×24 except the bias agreement and the
+// locking and irregular refinement rows (32×48, ~2–4 s each). The full study up to 64×96 for every pattern is
 // papers/triangle_transfer/ (its table is in docs/triangle_shell.md §9).
 #include <gtest/gtest.h>
 
@@ -71,9 +71,13 @@ double worst_error(const Strip& s, int across, int along) {
   return cache[key] = worst;
 }
 
-// Agreement at the coarsest resolution the study found within the issue's targets (2 %
-// warp/weft, 4 % bias) for the default alternating pattern: warp and weft at 8×12, bias at
-// 16×24 (measured: canvas 0.88 / 0.94 / 2.34 %, poplin 0.78 / 0.87 / 2.64 %).
+// Agreement at the coarsest resolution within the issue's targets (2 % warp/weft, 4 % bias)
+// for the default alternating pattern, against the corrected references (2026-12-01): warp
+// and weft at 8×12 (measured canvas +0.88 / +0.94 %, poplin +0.78 / +0.87 %), bias at 32×48.
+// Bias was asserted at 16×24 against the old off-axis curves, which were 1.7–5.2 % too stiff;
+// against the corrected ones the alternating pattern is +4.21 % (canvas) and +8.19 % (poplin)
+// there: linear triangles lock partly when fibres 75–367× stiffer than the shear cross them,
+// and 16×24 is not yet enough. The bar is unchanged; the resolution it holds at is what moved.
 struct AgreementCase {
   Strip strip;
   int across, along;
@@ -93,10 +97,10 @@ TEST_P(TriangleTensileReference, WithinTheTargetAtTheStudysResolution) {
 INSTANTIATE_TEST_SUITE_P(
     Alternating, TriangleTensileReference,
     ::testing::Values(AgreementCase{{"canvas", "warp", 90}, 8, 12, 0.02}, AgreementCase{{"canvas", "weft", 0}, 8, 12, 0.02},
-                      AgreementCase{{"canvas", "bias", 45}, 16, 24, 0.04},
+                      AgreementCase{{"canvas", "bias", 45}, 32, 48, 0.04},
                       AgreementCase{{"poplin", "warp", 90}, 8, 12, 0.02}, AgreementCase{{"poplin", "weft", 0}, 8, 12, 0.02},
-                      AgreementCase{{"poplin", "bias", 45}, 16, 24, 0.04},
-                      // The cross pattern (both diagonals) does not lock in bias either: 1.13 %.
+                      AgreementCase{{"poplin", "bias", 45}, 32, 48, 0.04},
+                      // The cross pattern (both diagonals) locks less: +2.91 % at 16×24.
                       AgreementCase{{"canvas", "bias", 45, TrianglePattern::Cross}, 16, 24, 0.04}),
     [](const auto& param_info) {
       return param_info.param.strip.material + "_" + param_info.param.strip.label + "_" + to_string(param_info.param.strip.pattern);
@@ -121,7 +125,8 @@ TEST(TriangleTensileLocking, OneDiagonalPatternsLockInBiasAndConvergeSlowly) {
   // Bias strip, canvas: fibres at ±45° to the strip. In `right` (`left`) every cell's diagonal
   // lies along one fibre family; the other family crosses the triangles, and a constant-strain
   // triangle cannot stretch it without extending that stiff fibre (locking). Measured worst
-  // errors 8×12 / 16×24 / 32×48: right +102 / +44.8 / +16.8 %, alternating +8.5 / +2.3 / −1.5 %.
+  // errors 8×12 / 16×24 / 32×48 (corrected reference): right +105 / +47.3 / +18.9 %, alternating
+  // +10.9 / +4.2 / … %.
   // Asserted: the locked pattern is far stiffer at 16×24 (> 20 %, ten times alternating) and
   // still converges (its error falls by > 1.5× per refinement).
   const Strip right{"canvas", "bias", 45, TrianglePattern::Right};
@@ -136,8 +141,8 @@ TEST(TriangleTensileLocking, OneDiagonalPatternsLockInBiasAndConvergeSlowly) {
 
 TEST(TriangleTensileLocking, IrregularMeshNeedsOneMoreRefinementInBias) {
   // Perturbed alternating mesh (p = 0.2): the edges no longer follow the fibres, so it
-  // partly locks: measured +13.6 / +5.7 / +1.6 % at 8×12 / 16×24 / 32×48 (alternating
-  // +8.5 / +2.3 / −1.5 %). Within the 4 % target from 32×48 on.
+  // partly locks: measured +7.57 / +3.40 % at 16×24 / 32×48 against the corrected reference
+  // (alternating +4.21 % at 16×24). Within the 4 % target from 32×48 on.
   const Strip irregular{"canvas", "bias", 45, TrianglePattern::Irregular};
   const double i16 = worst_error(irregular, 16, 24), i32 = worst_error(irregular, 32, 48);
   EXPECT_GT(i16, worst_error(Strip{"canvas", "bias", 45}, 16, 24));

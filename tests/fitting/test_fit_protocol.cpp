@@ -38,7 +38,7 @@ Options coarse_config(const std::vector<std::string>& extra = {}) {
   apply_overrides(config, schema, &registry(),
                   {"resolution.coarse_cells_across=4", "resolution.levels=1", "data.max_points=8",
                    "degree.max=2", "bend.cells_across=2", "bend.cells_along=24",
-                   "bend.find_overhang=false", "validation.offset_step_deg=1.0"});
+                   "bend.find_overhang=false", "validation.offset_iterations=2"});
   apply_overrides(config, schema, &registry(), extra);
   return config;
 }
@@ -83,7 +83,8 @@ TEST(FitProtocol, CanvasExampleEndToEndAtCoarseResolution) {
   EXPECT_EQ(reread.to_flat(), p.to_flat());
   std::ifstream in(dir / "report.json");
   const nlohmann::json j = nlohmann::json::parse(in);
-  for (const char* key : {"dataset", "config", "parameters", "fit", "bend", "validation", "timing_s"})
+  for (const char* key : {"dataset", "config", "parameters", "fit", "bend", "validation", "timing_s",
+                          "refinement", "finest_resolution"})
     EXPECT_TRUE(j.contains(key)) << key;
   for (const auto& f : j["fit"])
     for (const char* key : {"label", "angle_deg", "run", "degree", "avg_rel_error"}) EXPECT_TRUE(f.contains(key));
@@ -94,6 +95,62 @@ TEST(FitProtocol, CanvasExampleEndToEndAtCoarseResolution) {
     for (const char* key : {"angle_deg", "overhang_mm", "chord_angle_deg"}) EXPECT_TRUE(b.contains(key));
   EXPECT_TRUE(j["timing_s"].contains("total"));
   std::filesystem::remove_all(dir);
+}
+
+// The resolution ladder (docs/fitting.md §6 item 5) on a tiny ladder, 2×3 → 4×6 (→ 8×12):
+// with tolerance 0 nothing settles, so every stage is refined to the last configured level and
+// then once more (extra_levels = 1), and says so; with tolerance 1 every stage settles at the
+// first comparison and the finer levels are skipped. Each comparison lists every fitted entry
+// and the membrane stiffness, and the response change is what decided.
+std::vector<std::string> tiny_ladder(const std::string& tolerance, const std::string& levels) {
+  return {"resolution.coarse_cells_across=2", "resolution.levels=" + levels, "resolution.change_tolerance=" + tolerance,
+          "resolution.extra_levels=1", "stages.validation=false", "stages.bend=false", "degree.max=1"};
+}
+
+TEST(FitProtocol, LadderRefinesWhileTheResponseChangesAndSaysSo) {
+  const Dataset dataset = read_dataset(std::string(TWILL_SOURCE_DIR) + "/examples/canvas");
+  const FitReport report = run_fit(dataset, coarse_config(tiny_ladder("0", "2")), registry(), {});
+  ASSERT_EQ(report.refinement.size(), 6u);  // 3 stages × (4×6 vs 2×3, 8×12 vs 4×6)
+  EXPECT_EQ(report.finest_resolution, "8x12");
+  for (size_t i = 0; i < 3; ++i) {
+    const FitRefinement& first = report.refinement[i];
+    const FitRefinement& extra = report.refinement[i + 3];
+    EXPECT_EQ(first.from_resolution, "2x3");
+    EXPECT_EQ(first.to_resolution, "4x6");
+    EXPECT_EQ(first.decision, "above tolerance at the last level: one more level");
+    EXPECT_EQ(extra.to_resolution, "8x12");
+    EXPECT_EQ(extra.decision, "above tolerance, no level left (resolution.extra_levels)");
+    EXPECT_GT(first.response_change, 0.0);
+    ASSERT_GE(first.changes.size(), 2u);
+    EXPECT_EQ(first.changes.back().name.rfind("tau_", 0), 0u) << first.changes.back().name;
+    for (const auto& c : first.changes)
+      EXPECT_DOUBLE_EQ(c.relative, c.to == 0 ? std::abs(c.to - c.from) : std::abs(c.to - c.from) / std::abs(c.to)) << c.name;
+  }
+  for (const FitCurve& c : report.fit) EXPECT_EQ(c.simulated_N.size(), c.measured_N.size());
+}
+
+TEST(FitProtocol, LadderSkipsTheFinerLevelsOfASettledStage) {
+  const Dataset dataset = read_dataset(std::string(TWILL_SOURCE_DIR) + "/examples/canvas");
+  const FitReport report = run_fit(dataset, coarse_config(tiny_ladder("1", "3")), registry(), {});
+  ASSERT_EQ(report.refinement.size(), 3u);  // one comparison each, then settled
+  for (const FitRefinement& r : report.refinement) {
+    EXPECT_EQ(r.to_resolution, "4x6");
+    EXPECT_EQ(r.decision, "settled: finer levels skipped");
+    EXPECT_LE(r.response_change, 1.0);
+  }
+  EXPECT_EQ(report.finest_resolution, "4x6");
+  for (const auto& [stage, seconds] : report.timing_s) EXPECT_EQ(stage.find("level 2"), std::string::npos) << stage;
+}
+
+TEST(FitProtocol, LinearisedL1StepIsTheExactMinimiser) {
+  // Σ|f + t d − m| against a fine scan of t: the weighted median is a minimiser (ties allowed).
+  const Eigen::VectorXd f = (Eigen::VectorXd(5) << 1.0, 2.0, 3.0, 4.0, 5.0).finished();
+  const Eigen::VectorXd d = (Eigen::VectorXd(5) << 0.5, -1.0, 2.0, 0.0, 0.25).finished();
+  const Eigen::VectorXd m = (Eigen::VectorXd(5) << 1.2, 1.7, 3.9, 4.1, 4.0).finished();
+  auto error = [&](double t) { return (f + t * d - m).cwiseAbs().sum(); };
+  const double t = linearised_l1_minimiser(f, d, m);
+  for (double s = -5; s <= 5; s += 1e-3) EXPECT_LE(error(t), error(s) + 1e-12) << s;
+  EXPECT_EQ(linearised_l1_minimiser(f, Eigen::VectorXd::Zero(5), m), 0.0);
 }
 
 TEST(FitProtocol, ImpossibleConfigIsAnInputErrorNamingTheKey) {
