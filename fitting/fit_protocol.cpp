@@ -36,7 +36,7 @@ OptionSchema fit_config_schema() {
   OptionSchema& stop = s.add_section("stopping", "per-stage limits, applied to the optimiser's common options");
   stop.add_int("max_iterations", 60, "iterations per stage at the coarsest level").at_least(1);
   stop.add_int("refine_max_iterations", 15,
-               "iterations per stage at each finer level (it starts at the coarser optimum)").at_least(1);
+               "iterations per stage at each refit of the resolution ladder (it starts at an optimum)").at_least(1);
   stop.add_int("max_evaluations", 150, "objective evaluations per stage and resolution").at_least(1);
   stop.add_double("gradient_tolerance", 1e-7, "projected-gradient inf-norm in scaled unknowns").at_least(0.0);
   stop.add_double("function_tolerance", 1e-7, "relative change of the objective per iteration").at_least(0.0);
@@ -45,7 +45,7 @@ OptionSchema fit_config_schema() {
   // then 3 more iterations and 12 rejected trials (14 of 16 curve evaluations, 30 s) moved
   // it by 1e-4 relative, i.e. the average error by ~5e-5 of itself.
   stop.add_double("refine_function_tolerance", 1e-4,
-                  "relative change of the objective per iteration at each finer level").at_least(0.0);
+                  "relative change of the objective per iteration at each refit of the ladder").at_least(0.0);
   OptionSchema& init = s.add_section("initial_guess", "uniform-strain initial guesses (paper §5.3)");
   init.add_string("optimizer", "gauss-newton", "optimiser of the uniform-strain fits")
       .choices({"bfgs", "gauss-newton", "ipopt", "nlopt"});
@@ -441,7 +441,9 @@ class Protocol {
     bool ok = false;
   };
 
-  StageResult fit_at(const Stage& stage, int level, MaterialParameters* p) {
+  /// `refining`: a refit from a converged solution of the same degree (the ladder), which uses
+  /// the finer levels' stopping limits.
+  StageResult fit_at(const Stage& stage, int level, MaterialParameters* p, bool refining = false) {
     const auto t = Clock::now();
     const auto runs = runs_for(stage.angle_deg);
     std::vector<std::shared_ptr<Predictor>> predictors;
@@ -460,7 +462,7 @@ class Protocol {
                          resolution, degree, it.iteration, it.value, it.gradient_norm,
                          objective.equilibrium_solves()));
     });
-    std::unique_ptr<Optimizer> optimizer = make_stage_optimizer("", level > 0);
+    std::unique_ptr<Optimizer> optimizer = make_stage_optimizer("", refining);
     const OptimizerResult r = optimizer->minimize(objective, map.initial_x());
     StageResult out;
     if (!std::isfinite(r.summary.final_value)) {
@@ -656,11 +658,12 @@ class Protocol {
     return r;
   }
 
-  /// Phase B: every finer level refits each stage from the coarser solution (§5.5.4). After
-  /// each level a stage's change from the previous one decides: below
+  /// Phase B: every level, the coarsest included, refits each stage from the previous solution
+  /// with all cutoffs in place (§5.5.4), so that successive levels differ by the mesh alone
+  /// (the coarsest level's degree search ran before the cutoffs were set). From the second
+  /// level on a stage's change from the previous one decides: at or below
   /// `resolution.change_tolerance` it is settled (finer levels skipped); still above at the
-  /// last configured level, it gets up to `resolution.extra_levels` more. A single level is
-  /// refitted once after the cutoffs, with nothing to compare.
+  /// last configured level, it gets up to `resolution.extra_levels` more.
   void refine_levels() {
     const Options& res = config_.get_section("resolution");
     const double tolerance = res.get_double("change_tolerance");
@@ -668,25 +671,26 @@ class Protocol {
     std::map<std::string, Snapshot> previous;
     std::vector<const Stage*> open;
     for (const Stage& stage : stages())
-      if (!runs_for(stage.angle_deg).empty()) {
-        open.push_back(&stage);
-        previous[stage.name] = snapshot(stage, 0);
-      }
-    finest_level_ = levels() == 1 ? 0 : 1;
-    for (int level = finest_level_; level <= last && !open.empty(); ++level) {
+      if (!runs_for(stage.angle_deg).empty()) open.push_back(&stage);
+    for (int level = 0; level <= last && !open.empty(); ++level) {
       finest_level_ = level;
       std::vector<const Stage*> still_open;
       for (const Stage* stage : open) {
         const auto t = Clock::now();
         MaterialParameters refined = params_;
-        if (!fit_at(*stage, level, &refined).ok)
+        if (!fit_at(*stage, level, &refined, true).ok)
           throw std::runtime_error("stage " + stage->name + ": fit failed at level " + std::to_string(level));
         params_ = refined;
         report_.timing_s.emplace_back(stage->name + " (level " + std::to_string(level) + ")", seconds_since(t));
-        if (level == 0) continue;
         const Snapshot now = snapshot(*stage, level);
-        FitRefinement r = compare(*stage, previous[stage->name], now);
-        previous[stage->name] = now;
+        const auto before = previous.find(stage->name);
+        if (before == previous.end()) {
+          previous.emplace(stage->name, now);
+          still_open.push_back(stage);
+          continue;
+        }
+        FitRefinement r = compare(*stage, before->second, now);
+        before->second = now;
         const bool settled = r.response_change <= tolerance;
         const std::string change = fmt::format(
             "membrane response changed up to {:.2f} % (at strain {:.3g}; {} {:+.2f} %) from {} to {} (tolerance {:.2f} %)",
@@ -705,7 +709,8 @@ class Protocol {
         if (!settled) still_open.push_back(stage);
         report_.refinement.push_back(std::move(r));
       }
-      open = level == 0 ? std::vector<const Stage*>{} : still_open;
+      // One configured level: refitted once with the cutoffs, nothing to compare.
+      open = levels() == 1 ? std::vector<const Stage*>{} : still_open;
     }
     report_.finest_resolution = resolution_text(setup_for(*fit_runs_.front().test, finest_level_));
   }

@@ -23,9 +23,9 @@
 //      at least `degree.min_improvement` [20 %], up to `degree.max` [3]; a higher degree
 //      starts from the lower one;
 //      multiresolution (§5.5.4): the degree search and the cutoffs happen at the coarsest
-//      level (stages in the paper's order); then every finer level refits warp, weft and bias
-//      at their chosen degrees from the coarser solution, with all cutoffs in place (a single
-//      level is refitted once after the cutoffs); the cutoffs' "largest strain seen" is
+//      level (stages in the paper's order); then every level, the coarsest first, refits warp,
+//      weft and bias at their chosen degrees from the previous solution, with all cutoffs in
+//      place; the cutoffs' "largest strain seen" is
 //      sampled on the finest level's simulated strips at the largest measured extension; levels are
 //      `resolution.coarse_cells_across` [8] × gauge/width·that along, doubled
 //      `resolution.levels` − 1 [2] times (8×12 → 16×24 → 32×48 for 75 mm gauges,
