@@ -103,6 +103,12 @@ class YamlMap {
   std::set<std::string> known_;
 };
 
+/// Throws InputError unless `path` is a regular file (or a symlink to one): missing files,
+/// directories, symlink loops and special files (FIFOs would block the reader) each get their
+/// own message. With `listed_at` the error is located there (the fabric.yaml line that names
+/// the file) and names the path in its text.
+void check_readable_file(const std::string& path, const InputLocation& listed_at = {});
+
 /// Parses a YAML file; a missing file or a syntax error is an InputError with the line.
 YamlValue load_yaml_file(const std::string& path);
 /// Parses YAML text; `source_name` stands in for the file name in messages.
