@@ -91,6 +91,7 @@ void add_bench_command(CLI::App& app, Context& context) {
                   "key=value for every listed discretization that has the key (repeatable; twill list)");
   cmd->callback([args, &context] {
     for (const std::string& res : args->resolutions) parse_resolution(res, "--resolution");  // before any work
+    for (const std::string& label : args->labels) label_angle_deg(label);
     const std::filesystem::path folder(args->reference);
     const MaterialParameters p = read_params_file((folder / "params.yaml").string());
     auto& category = context.registry.category<DiscretizationFactories>(registry_category::kDiscretization);

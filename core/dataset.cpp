@@ -286,13 +286,13 @@ TensileTest read_tensile_test(const YamlValue& v, const fs::path& folder) {
   if (items.empty()) throw runs.error("a tensile test needs at least one run file");
   for (const auto& item : items) {
     const std::string listed = item.as_string();
+    const fs::path file = contained_path(item, folder);
     TensileRun run;
     try {
-      run = read_tensile_run_csv(contained_path(item, folder).string());
+      run = read_tensile_run_csv(file.string());
       check_strains(run, t.gauge_length_mm);
     } catch (const InputError& e) {
       // The CSV's own location first (file, line, column), then where fabric.yaml lists it.
-      if (e.where().file == item.file()) throw;
       throw InputError(e.where(), e.reason() + " (run listed in " + item.file() + ":" +
                                       std::to_string(item.line()) + ", key '" + item.path() + "')");
     }

@@ -42,6 +42,7 @@ YamlValue::YamlValue(YAML::Node node, std::string file, std::string path)
 
 int YamlValue::line() const {
   if (!node_.IsDefined()) return 0;
+  if (node_.IsNull() && key_line_ > 0) return key_line_;
   const int zero_based = node_.Mark().line;
   return zero_based < 0 ? 0 : zero_based + 1;
 }
@@ -151,7 +152,10 @@ bool YamlMap::has(const std::string& key) {
 std::optional<YamlValue> YamlMap::find(const std::string& key) {
   if (!has(key)) return std::nullopt;
   const YAML::Node& node = value_.node();
-  return YamlValue(node[key], value_.file(), child_path(key));
+  YamlValue found(node[key], value_.file(), child_path(key));
+  for (std::size_t i = 0; i < keys_in_order_.size(); ++i)
+    if (keys_in_order_[i] == key) found.set_key_line(key_lines_[i]);
+  return found;
 }
 
 YamlValue YamlMap::get(const std::string& key) {

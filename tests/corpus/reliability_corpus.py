@@ -18,6 +18,7 @@ protocol (one level of 2 cells across, degree 1, no bend/validation, a 6-point r
 Exit status 0 when every case passes; the summary line gives the count and the runtime.
 """
 import argparse
+import concurrent.futures
 import hashlib
 import os
 import resource
@@ -95,6 +96,7 @@ G12_Pa: 2.0e6
 eta1: {mu: [1.0], alpha: [2.0]}
 eta3: {mu: [1.0], alpha: [3.0]}
 eta4: {mu: [1.0], alpha: [1.5]}
+cutoffs: {E11_max: null, E22_max: null, E12_max: null}
 """
 
 
@@ -298,7 +300,7 @@ def run_path_cases():
     path_case("empty", '""', ["empty path"])
     path_case("fabric-itself", "fabric.yaml", ["missing required extension"], expect="reject")
     # The CSV's own error names the CSV line and where fabric.yaml lists it.
-    c[-1].fragments = ["fabric.yaml", "run listed in", "tensile[0].runs[0]"]
+    c[-1].fragments = ["fabric.yaml:1", "run listed in", "fabric.yaml:12, key 'tensile[0].runs[0]'"]
     for case in c:
         if "{ABS}" in str(case.setup):
             pass
@@ -317,7 +319,7 @@ def csv_cases():
     H = "extension_mm,force_N\n"
     rows = RUN_CSV.split("\n", 1)[1]
     def add(name, csv, fragments, expect="reject", issue=False):
-        frag = fragments if expect == "accept" else ["run-1.csv"] + fragments + ["run listed in fabric.yaml:12"]
+        frag = ["run-1.csv"] + fragments + ["fabric.yaml:12, key 'tensile[0].runs[0]'"]
         c.append(Case(("issue/" if issue else "csv/") + name, ["inspect", "{ds}"], expect=expect,
                       fragments=[] if expect == "accept" else frag, setup=dataset_setup(csv=csv)))
     add("bad-cell", H + "0.5,4\n1.0,1O.0\n", ["run-1.csv:3", "force_N", "not a finite number"])
@@ -336,7 +338,7 @@ def csv_cases():
     add("force-kN-1e4", "extension_mm,force_kN\n0.5,4\n1.0,1e4\n", ["run-1.csv:3", "N"])
     add("extension-1e6", H + "0.5,4\n1e6,8\n", ["run-1.csv:3", "extension", "strain"])
     add("extension-below-clamps", H + "0.5,4\n-100,8\n1.0,9\n", ["run-1.csv:3", "strain"])
-    add("extension-metres", "extension_m,force_N\n0.5,4\n1.0,8\n", ["run-1.csv:2", "strain", "mm"])
+    add("extension-metres", "extension_m,force_N\n0.5,4\n1.0,8\n", ["run-1.csv:3", "strain", "mm"])
     add("wrong-column-count", H + "0.5,4\n1.0,8,3\n", ["run-1.csv:3", "row has 3 cells"])
     add("missing-force", "extension_mm,time_s\n0.5,4\n1,2\n", ["run-1.csv:1", "missing required force"])
     add("missing-extension", "force_N\n4\n8\n", ["run-1.csv:1", "missing required extension"])
@@ -365,7 +367,7 @@ def params_cases():
         c.append(Case("params/" + name, argv, expect=expect, fragments=fragments, setup=setup))
     P = PARAMS
     add("accept/valid", P, [], expect="accept")
-    add("unknown-key", P + "colour: red\n", ["p.yaml:11", "colour", "unknown key"])
+    add("unknown-key", P + "colour: red\n", ["p.yaml:12", "colour", "unknown key"])
     add("negative-stiffness", P.replace("a22_Pa: 0.8e8", "a22_Pa: -0.8e8"), ["p.yaml:6", "a22_Pa"])
     add("nan-stiffness", P.replace("a11_Pa: 1.2e8", "a11_Pa: .nan"), ["p.yaml:4", "a11_Pa"])
     add("inf-thickness", P.replace("thickness_m: 0.00053", "thickness_m: .inf"), ["p.yaml:3", "thickness_m"])
@@ -375,7 +377,7 @@ def params_cases():
     add("mu-alpha-lengths", P.replace("eta1: {mu: [1.0], alpha: [2.0]}", "eta1: {mu: [1.0], alpha: [2.0, 3.0]}"),
         ["p.yaml:8", "eta1"])
     add("syntax", P + "a: [\n", ["p.yaml", "YAML syntax error"])
-    add("duplicate", P + "a11_Pa: 1\n", ["p.yaml:11", "duplicate key"])
+    add("duplicate", P + "a11_Pa: 1\n", ["p.yaml:12", "duplicate key"])
     add("empty", "", ["p.yaml", "mapping"])
     c.append(Case("params/is-directory", ["simulate", "--params", "{w}", "--test", "tensile", "--angle-deg", "90",
                                           "--extensions-mm", "1"], fragments=["--params"], setup=lambda w: None))
@@ -672,6 +674,7 @@ def main():
     parser.add_argument("--only", default="", help="run only cases whose name contains this")
     parser.add_argument("--keep", action="store_true", help="keep the scratch folders")
     parser.add_argument("--list", action="store_true", help="list the cases and exit")
+    parser.add_argument("--jobs", type=int, default=2, help="cases run at the same time (default 2)")
     args = parser.parse_args()
     cases = [c for c in all_cases() if args.only in c.name]
     names = [c.name for c in cases]
@@ -686,17 +689,21 @@ def main():
     start = time.time()
     failed, skipped = [], []
     try:
+        runnable = []
         for case in cases:
             if case.needs_non_root and is_root:
                 skipped.append(case.name)  # root writes anywhere: permissions cannot be tested
-                continue
-            problems, elapsed, output = run_case(case, twill, scratch, args.keep)
-            if problems:
-                failed.append(case.name)
-                print(f"FAIL {case.name} ({elapsed:.2f} s)")
-                for p in problems:
-                    print(f"     - {p}")
-                print("     output: " + output[:600].replace("\n", "\n             "))
+            else:
+                runnable.append(case)
+        with concurrent.futures.ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
+            results = pool.map(lambda c: (c, run_case(c, twill, scratch, args.keep)), runnable)
+            for case, (problems, elapsed, output) in results:
+                if problems:
+                    failed.append(case.name)
+                    print(f"FAIL {case.name} ({elapsed:.2f} s)")
+                    for p in problems:
+                        print(f"     - {p}")
+                    print("     output: " + output[:600].replace("\n", "\n             "))
     finally:
         if not args.keep:
             shutil.rmtree(scratch, ignore_errors=True)

@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "core/input_error.hpp"
+#include "fitting/fit_protocol.hpp"
 
 namespace twill {
 namespace {
@@ -100,6 +101,27 @@ TEST_F(FitOutputFolderTest, FailedFitLeavesNothingOrAnIncompleteFolder) {
   ASSERT_TRUE(kept);
   EXPECT_EQ(*kept, root_ / "out.incomplete");
   EXPECT_FALSE(fs::exists(root_ / "out"));
+}
+
+TEST_F(FitOutputFolderTest, IncompleteReportNeverLooksComplete) {
+  FitReport finished;
+  finished.dataset = "canvas";
+  FitStageRecord warp;
+  warp.stage = "warp";
+  warp.resolution = "8x12";
+  warp.avg_rel_error = 0.0123;
+  finished.stages.push_back(warp);
+  finished.notes.push_back("warp: degree 2 chosen");
+  const Options config;  // the config is copied as given; its content does not matter here
+  write_incomplete_fit_report(finished, config, "bend stage failed: no convergence", (root_ / "inc").string());
+  const std::string md = read(root_ / "inc" / "report-incomplete.md");
+  EXPECT_EQ(md.rfind("# INCOMPLETE twill fit: canvas", 0), 0u) << md;
+  EXPECT_NE(md.find("bend stage failed: no convergence"), std::string::npos);
+  EXPECT_NE(md.find("| warp | 8x12 |"), std::string::npos) << md;  // the finished stage is kept
+  const std::string json = read(root_ / "inc" / "report-incomplete.json");
+  EXPECT_NE(json.find("\"complete\": false"), std::string::npos) << json;
+  EXPECT_FALSE(fs::exists(root_ / "inc" / "params.yaml"));
+  EXPECT_FALSE(fs::exists(root_ / "inc" / "report.md"));
 }
 
 TEST_F(FitOutputFolderTest, UsersPartialFolderIsNotTouched) {
