@@ -252,7 +252,7 @@ fs::path contained_path(const YamlValue& item, const fs::path& folder) {
     throw item.error("cannot resolve '" + excerpt(listed) + "': " + ec.message());
   }
   const fs::path inside = target.lexically_relative(root);
-  if (inside.empty() || *inside.begin() == ".." || inside == ".")
+  if (inside.empty() || *inside.begin() == "..")
     throw item.error("the path '" + excerpt(listed) + "' leaves the dataset folder (it resolves to " +
                      target.string() + "); paths must stay inside " + root.string());
   check_readable_file(resolved.string(), item.location());

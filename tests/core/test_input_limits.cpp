@@ -3,6 +3,7 @@
 // limit; invalid UTF-8 is found at its byte; long text is cut when quoted.
 #include <gtest/gtest.h>
 
+#include <limits>
 #include <string>
 
 #include "core/input_error.hpp"

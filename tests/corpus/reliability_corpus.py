@@ -293,7 +293,7 @@ def run_path_cases():
               extra=lambda w: (os.symlink("b.csv", os.path.join(w, "ds", "tensile", "a.csv")),
                                os.symlink("a.csv", os.path.join(w, "ds", "tensile", "b.csv"))))
     path_case("directory", "tensile", ["a directory"])
-    path_case("dataset-root", ".", ["leaves the dataset folder"])
+    path_case("dataset-root", ".", ["a directory"])
     path_case("fifo", "tensile/pipe.csv", ["special file"],
               extra=lambda w: os.mkfifo(os.path.join(w, "ds", "tensile", "pipe.csv")))
     path_case("missing", "tensile/run-9.csv", ["no such file"])
@@ -567,6 +567,9 @@ def output_cases():
     c.append(Case("output/-o-unwritable", fit + ["-o", "{w}/ro/out"], fragments=["-o", "not writable"],
                   setup=lambda w: (base_dataset(w), os.makedirs(os.path.join(w, "ro")), os.chmod(os.path.join(w, "ro"), 0o555)),
                   needs_non_root=True))
+    # /proc takes no new entries, even from root (who passes every permission check above).
+    c.append(Case("output/-o-unwritable-proc", fit + ["-o", "/proc/twill-corpus-out"],
+                  fragments=["-o", "output folder /proc/twill-corpus-out"]))
     # The default output path is built from the dataset's name, made one safe path component.
     c.append(Case("issue/hostile-name-default-out", fit, expect="accept", allowed=["out"],
                   setup=dataset_setup(with_line(1, 'name: "/../../../ESCAPED"')),
