@@ -199,6 +199,9 @@ void write_incomplete_fit_report(const FitReport& finished, const Options& confi
       "Error: `" + error + "`\n\n";
   md.replace(0, md.find("\n\n") + 2, banner);  // the banner replaces the title line
   md.erase(md.find("\n## Figures"));            // no figures are drawn for a failed fit
+  const std::string outputs = "Parameters: `params.yaml`; everything below is also in `report.json`";
+  if (const auto at = md.find(outputs); at != std::string::npos)
+    md.replace(at, outputs.size(), "Everything below is also in `report-incomplete.json`");
   write_text(d / "report-incomplete.md", md);
 }
 

@@ -105,7 +105,8 @@ class Case:
 
     argv: arguments after `twill`; "{ds}" is the dataset folder, "{w}" the case's work folder.
     setup(work): writes the case's files (default: the base dataset in work/ds).
-    expect: "accept" or "reject"; fragments: strings the output must contain.
+    expect: "accept", "reject" (bad input, status 2) or "fail" (a fit that fails, status 1);
+    fragments: strings the output must contain.
     allowed: paths (relative to work) twill may create or change; check(work): extra checks,
     returns a list of problems.
     """
@@ -581,9 +582,41 @@ def output_cases():
     return c
 
 
+BIAS_CSV = "extension_mm,force_N\n" + "".join(f"{74.0 * i:.2f},{5e5 * (i / 10) ** 2 + 1:.3f}\n" for i in range(1, 11))
+
+
+def late_failure_cases():
+    """A fit whose bias stage fails after warp and weft finished: a bias run to 10x its gauge,
+    which the coarse strip cannot follow (measured: "stage bias: degree 1 fit failed")."""
+    def setup(work):
+        lines = FABRIC_LINES[:12] + [
+            "  - angle_deg: 0", "    width_mm: 50", "    gauge_length_mm: 75", "    runs: [tensile/run-1.csv]",
+            "  - angle_deg: 45", "    width_mm: 50", "    gauge_length_mm: 75", "    runs: [tensile/bias-1.csv]"]
+        ds = base_dataset(work, lines)
+        write(os.path.join(ds, "tensile", "bias-1.csv"), BIAS_CSV)
+    def incomplete_report(work):
+        p = os.path.join(work, "out.incomplete", "report-incomplete.md")
+        if not os.path.exists(p):
+            return ["out.incomplete/report-incomplete.md is missing"]
+        text = open(p).read()
+        problems = [] if text.startswith("# INCOMPLETE") else ["the kept report is not marked incomplete"]
+        return problems + ([] if "| warp |" in text else ["the finished warp stage is not in the kept report"])
+    return [
+        Case("issue/late-failure-keeps-finished-stages", ["fit", "{ds}", "-o", "{w}/out"] + TINY_FIT, expect="fail",
+             fragments=["stage bias", "marked incomplete", "out.incomplete/report-incomplete.md"], setup=setup,
+             allowed=["out.incomplete"],
+             check=all_of(absent("out"), absent("out.partial"), absent("out.incomplete/params.yaml"),
+                          absent("out.incomplete/report.md"), incomplete_report)),
+        Case("output/early-failure-leaves-nothing", ["fit", "{ds}", "-o", "{w}/out"] + TINY_FIT +
+             ["--set", "solver.gradient_tolerance=1e-300"], expect="fail", fragments=["stage warp"],
+             check=all_of(absent("out"), absent("out.partial"), absent("out.incomplete"))),
+    ]
+
+
 def all_cases():
     return (fabric_value_cases() + fabric_structure_cases() + dataset_folder_cases() + run_path_cases() +
-            csv_cases() + params_cases() + simulate_cases() + other_command_cases() + config_cases() + output_cases())
+            csv_cases() + params_cases() + simulate_cases() + other_command_cases() + config_cases() + output_cases() +
+            late_failure_cases())
 
 
 # ------------------------------------------------------------------------------------------
@@ -641,7 +674,9 @@ def run_case(case, twill, scratch, keep):
             problems.append(f"expected acceptance, got status {status}")
         elif case.expect == "reject" and status != 2:
             problems.append(f"expected rejection (status 2), got {status}")
-        if case.expect == "reject":
+        elif case.expect == "fail" and status != 1:
+            problems.append(f"expected a failure (status 1), got {status}")
+        if case.expect in ("reject", "fail"):
             for fragment in case.fragments:
                 if fragment not in output:
                     problems.append(f"message lacks '{fragment}'")
@@ -713,7 +748,7 @@ def main():
     ran = len(cases) - len(skipped)
     print(f"reliability corpus: {ran - len(failed)} of {ran} cases pass "
           f"({sum(c.expect == 'reject' for c in cases)} rejections, {sum(c.expect == 'accept' for c in cases)} "
-          f"acceptances; {len(skipped)} skipped as root: {', '.join(skipped) or 'none'}) in {time.time() - start:.1f} s")
+          f"acceptances, {sum(c.expect == 'fail' for c in cases)} failing fits; {len(skipped)} skipped as root: {', '.join(skipped) or 'none'}) in {time.time() - start:.1f} s")
     return 1 if failed else 0
 
 
