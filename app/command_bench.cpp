@@ -15,10 +15,11 @@
 // an error. Timings are wall clock on this machine; run on an idle machine, one BLAS thread.
 #include <sys/resource.h>
 
+#include <charconv>
 #include <cstdio>
 #include <filesystem>
 #include <map>
-#include <sstream>
+#include <tuple>
 
 #include "app/commands.hpp"
 #include "core/dataset.hpp"
@@ -49,7 +50,11 @@ double label_angle_deg(const std::string& label) {
   if (label == "warp") return 90;
   if (label == "weft") return 0;
   if (label == "bias") return 45;
-  if (label.size() > 1 && label[0] == 'a') return std::stod(label.substr(1));
+  double angle = 0;
+  const char* end = label.data() + label.size();
+  if (label.size() > 1 && label[0] == 'a' && std::from_chars(label.data() + 1, end, angle).ptr == end &&
+      range_violation(angle, limits::kAngle).empty())
+    return angle;
   throw InputError({"command line", 0, "--label"}, "unknown reference curve '" + label +
                                                        "' (warp, weft, bias, a22.5, a67.5)");
 }
@@ -85,6 +90,8 @@ void add_bench_command(CLI::App& app, Context& context) {
   cmd->add_option("--option", args->options,
                   "key=value for every listed discretization that has the key (repeatable; twill list)");
   cmd->callback([args, &context] {
+    for (const std::string& res : args->resolutions) parse_resolution(res, "--resolution");  // before any work
+    for (const std::string& label : args->labels) label_angle_deg(label);
     const std::filesystem::path folder(args->reference);
     const MaterialParameters p = read_params_file((folder / "params.yaml").string());
     auto& category = context.registry.category<DiscretizationFactories>(registry_category::kDiscretization);
@@ -111,10 +118,7 @@ void add_bench_command(CLI::App& app, Context& context) {
         for (const std::string& res : args->resolutions) {
           TensileSetup setup;
           setup.angle_deg = angle;
-          char x = 0;
-          std::istringstream in(res);
-          if (!(in >> setup.cells_across >> x >> setup.cells_along) || x != 'x')
-            throw InputError({"command line", 0, "--resolution"}, "expected NxM, e.g. 16x24; got '" + res + "'");
+          std::tie(setup.cells_across, setup.cells_along) = parse_resolution(res, "--resolution");
           const Options& chosen = options.at(name);
           TensileExperiment experiment(
               setup, [&](const StripSpec& s, const MaterialParameters& m) { return category.create(name, chosen, s, m); },

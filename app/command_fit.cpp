@@ -1,12 +1,16 @@
-// `twill fit DATASET [-c CONFIG.yaml] [--set KEY=VALUE ...] [-o OUTDIR] [--quiet]`: the paper's
-// fitting protocol end to end (fitting/fit_protocol.hpp). Every protocol choice is a config key
-// (`twill fit --print-config` lists them with defaults); --set overrides any key, e.g.
-// `--set optimizer=ipopt`, `--set discretization=triangle-shell`, `--set resolution.levels=2`.
+// `twill fit DATASET [-c CONFIG.yaml] [--set KEY=VALUE ...] [-o OUTDIR] [--force] [--quiet]`:
+// the paper's fitting protocol end to end (fitting/fit_protocol.hpp). Every protocol choice is
+// a config key (`twill fit --print-config` lists them with defaults); --set overrides any key,
+// e.g. `--set optimizer=ipopt`, `--set discretization=triangle-shell`, `--set resolution.levels=2`.
 //
-// Outputs (OUTDIR, default out/fit-<dataset name>): params.yaml, report.json, report.md,
-// config.yaml (resolved), fig2/3/4 PNGs. They are written into OUTDIR.partial and renamed at
-// the end: a failed or interrupted fit never leaves an OUTDIR that looks complete (the
-// .partial folder is removed on failure).
+// Outputs (OUTDIR, default out/fit-<dataset name made one safe path component>): params.yaml,
+// report.json, report.md, config.yaml (resolved), fig2/3/4 PNGs. Everything is validated
+// before any work: config, dataset, the sizes of every simulated strip, and OUTDIR (new, empty
+// or a previous twill output unless --force; writable). The outputs are written into
+// OUTDIR.partial and moved into OUTDIR at the end, replacing only twill's own files
+// (fitting/fit_output_folder.hpp): a failed or interrupted fit never leaves an OUTDIR that
+// looks complete. When a stage fails after others finished, their report is kept in
+// OUTDIR.incomplete (report-incomplete.md/.json, no params.yaml).
 #include <fmt/format.h>
 
 #include <filesystem>
@@ -16,6 +20,8 @@
 #include "app/python_script.hpp"
 #include "core/config.hpp"
 #include "core/dataset.hpp"
+#include "fitting/fit_input_checks.hpp"
+#include "fitting/fit_output_folder.hpp"
 #include "fitting/fit_protocol.hpp"
 
 namespace twill {
@@ -24,8 +30,36 @@ namespace {
 struct FitArgs {
   std::string dataset, config, out;
   std::vector<std::string> sets;
-  bool quiet = false, print_config = false, no_plots = false;
+  bool quiet = false, print_config = false, no_plots = false, force = false;
 };
+
+// Where a config key got its value: the last --set of it, else the config file, else the
+// defaults (whose limits are the schema's).
+InputLocation config_key_location(const FitArgs& args, const std::string& key) {
+  for (auto it = args.sets.rbegin(); it != args.sets.rend(); ++it)
+    if (it->rfind(key + "=", 0) == 0 || it->rfind(key + " =", 0) == 0) return {"--set", 0, key};
+  return {args.config.empty() ? "default config" : args.config, 0, key};
+}
+
+// Runs the protocol; when a stage fails after others finished, keeps their report in
+// OUTDIR.incomplete and says so in the error (the error keeps its kind: bad input or failure).
+FitReport run_fit_keeping_finished(const Dataset& dataset, const Options& config, const Registry& registry,
+                                   const FitProgress& progress, FitOutputFolder& folder) {
+  FitReport finished;
+  try {
+    return run_fit(dataset, config, registry, progress, &finished);
+  } catch (const std::exception& e) {
+    if (finished.stages.empty()) throw;  // nothing was learned yet
+    write_incomplete_fit_report(finished, config, e.what(), folder.staging().string());
+    const auto kept = folder.keep_incomplete();
+    const std::string where =
+        kept ? "; the stages that finished are reported, marked incomplete, in " + (*kept / "report-incomplete.md").string()
+             : "; the report of the finished stages could not be kept (" + folder.out().string() +
+                   ".incomplete exists and is not twill's)";
+    if (const auto* input = dynamic_cast<const InputError*>(&e)) throw InputError(input->where(), input->reason() + where);
+    throw std::runtime_error(e.what() + where);
+  }
+}
 
 void run(Context& context, const FitArgs& args) {
   const OptionSchema schema = fit_config_schema();
@@ -37,33 +71,27 @@ void run(Context& context, const FitArgs& args) {
     return;
   }
   if (args.dataset.empty()) throw InputError({"", 0, "DATASET"}, "twill fit needs a dataset folder");
-  const Dataset dataset = read_dataset(args.dataset);  // bad data fails before anything is written
-  const std::filesystem::path out =
-      args.out.empty() ? std::filesystem::path("out") / ("fit-" + dataset.name) : std::filesystem::path(args.out);
-  const std::filesystem::path staging = out.string() + ".partial";
+  // Bad data, impossible sizes and an unacceptable OUTDIR fail before any work.
+  const Dataset dataset = read_dataset(args.dataset);
+  check_fit_sizes(dataset, config, [&](const std::string& key) { return config_key_location(args, key); });
+  FitOutputFolder folder(args.out.empty() ? default_fit_folder(dataset.name) : std::filesystem::path(args.out),
+                         dataset.folder, args.force);
 
   const bool quiet = args.quiet;
   auto progress = [quiet](int level, const std::string& line) {
     if (quiet) return;
     if (level == 0 || level == 1) std::cout << line << std::endl;
   };
-  if (!quiet) std::cout << fmt::format("twill fit {} -> {}\n", dataset.folder, out.string());
-  try {
-    std::filesystem::remove_all(staging);
-    const FitReport report = run_fit(dataset, config, context.registry, progress);
-    write_fit_outputs(report, config, staging.string());
-    if (!args.no_plots)
-      run_python_script(context, "plot_fit.py", {(staging / "report.json").string(), staging.string()});
-    std::filesystem::remove_all(out);
-    std::filesystem::rename(staging, out);
-    if (!quiet) {
-      std::cout << fmt::format("done in {:.1f} s: {}/params.yaml, report.md, report.json\n",
-                               report.timing_s.back().second, out.string());
-    }
-  } catch (...) {
-    std::error_code ignored;
-    std::filesystem::remove_all(staging, ignored);
-    throw;
+  if (!quiet) std::cout << fmt::format("twill fit {} -> {}\n", dataset.folder, folder.out().string());
+  const FitReport report = run_fit_keeping_finished(dataset, config, context.registry, progress, folder);
+  write_fit_outputs(report, config, folder.staging().string());
+  if (!args.no_plots)
+    run_python_script(context, "plot_fit.py",
+                      {(folder.staging() / "report.json").string(), folder.staging().string()});
+  folder.commit();
+  if (!quiet) {
+    std::cout << fmt::format("done in {:.1f} s: {}/params.yaml, report.md, report.json\n",
+                             report.timing_s.back().second, folder.out().string());
   }
 }
 
@@ -76,6 +104,8 @@ void add_fit_command(CLI::App& app, Context& context) {
   cmd->add_option("-c,--config", args->config, "config YAML (keys: twill fit --print-config)");
   cmd->add_option("--set", args->sets, "override a config key, KEY=VALUE (repeatable)");
   cmd->add_option("-o,--out", args->out, "output folder (default out/fit-<dataset name>)");
+  cmd->add_flag("--force", args->force,
+                "write into an existing non-empty folder that is not a twill output (only twill's files are replaced)");
   cmd->add_flag("--quiet", args->quiet, "no progress output");
   cmd->add_flag("--no-plots", args->no_plots, "skip the figures (no matplotlib needed)");
   cmd->add_flag("--print-config", args->print_config, "print the resolved config and exit");

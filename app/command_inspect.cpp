@@ -135,8 +135,10 @@ void add_inspect_command(CLI::App& app, Context& context) {
   auto o = std::make_shared<InspectOptions>();
   cmd->add_option("dataset", o->dataset, "Dataset folder (contains fabric.yaml)")->required();
   cmd->add_option("--plot", o->plot, "Write a plot of all raw force-extension curves (.png, .svg or .pdf)");
+  // A non-negative integer: CLI11 would read "-1" into the unsigned seed as 2^64 - 1.
   cmd->add_option("--seed", o->seed, "Seed of the random repeat choice for off-axis tests (paper §6.4)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   cmd->callback([&context, o] { run_inspect(context, *o); });
 }
 

@@ -20,6 +20,7 @@
 #include "core/input_error.hpp"
 #include "core/obj_writer.hpp"
 #include "core/params_io.hpp"
+#include "core/yaml_reader.hpp"
 #include "experiments/cantilever_test.hpp"
 #include "experiments/tensile_test.hpp"
 
@@ -35,16 +36,8 @@ struct SimulateArgs {
   bool find_overhang = false, json = false, planar = true;
 };
 
-std::pair<int, int> parse_resolution(const std::string& text) {
-  int a = 0, b = 0;
-  char x = 0;
-  std::istringstream in(text);
-  if (!(in >> a >> x >> b) || (x != 'x' && x != 'X') || a < 1 || b < 1 || !in.eof())
-    throw InputError({"command line", 0, "--resolution"}, "expected NxM (cells across x along), e.g. 16x24; got '" + text + "'");
-  return {a, b};
-}
-
-std::vector<double> parse_list(const std::string& text) {
+// Comma-separated extensions [mm], each finite and a plausible strain of the gauge.
+std::vector<double> parse_list(const std::string& text, double gauge_length_mm) {
   std::vector<double> values;
   std::stringstream in(text);
   std::string item;
@@ -54,8 +47,13 @@ std::vector<double> parse_list(const std::string& text) {
       values.push_back(std::stod(item, &used));
       if (used != item.size()) throw std::invalid_argument(item);
     } catch (const std::exception&) {
-      throw InputError({"command line", 0, "--extensions-mm"}, "not a number: '" + item + "'");
+      throw InputError({"command line", 0, "--extensions-mm"}, "not a number: '" + excerpt(item) + "'");
     }
+    const std::string violation = range_violation(values.back() / gauge_length_mm, limits::kEngineeringStrain);
+    if (!violation.empty())
+      throw InputError({"command line", 0, "--extensions-mm"},
+                       "extension '" + excerpt(item) + "' mm on a " + format_double(gauge_length_mm) +
+                           " mm gauge: " + violation);
   }
   if (values.empty()) throw InputError({"command line", 0, "--extensions-mm"}, "no extensions given");
   return values;
@@ -87,17 +85,18 @@ void run_tensile(Registry& registry, const SimulateArgs& args, const MaterialPar
     throw InputError({"command line", 0, "--extensions-mm"}, "a tensile simulation needs --extensions-mm");
   TensileSetup setup;
   setup.angle_deg = args.angle_deg;
-  setup.width_mm = args.width_mm.value_or(50.0);
-  setup.gauge_length_mm = args.gauge_mm.value_or(75.0);
+  setup.width_mm = checked_argument(args.width_mm.value_or(50.0), limits::kStripWidth, "--width-mm");
+  setup.gauge_length_mm = checked_argument(args.gauge_mm.value_or(75.0), limits::kStripLength, "--gauge-mm");
   setup.planar = args.planar;
-  const auto [across, along] = parse_resolution(args.resolution.empty() ? "16x24" : args.resolution);
+  const auto [across, along] = parse_resolution(args.resolution.empty() ? "16x24" : args.resolution, "--resolution");
+  const std::vector<double> extensions = parse_list(args.extensions, setup.gauge_length_mm);
   setup.cells_across = across;
   setup.cells_along = along;
   std::string error;
   if (!setup.validate(&error)) throw InputError({"command line", 0, ""}, error);
   TensileExperiment experiment(setup, make_factory(registry, args), p);
   Eigen::VectorXd last_q;
-  const TensileCurve curve = experiment.run(parse_list(args.extensions),
+  const TensileCurve curve = experiment.run(extensions,
                                             [&](int, const Eigen::VectorXd& q, const EquilibriumSolver&) { last_q = q; });
   if (!args.mesh_out.empty() && last_q.size() > 0) write_mesh(args.mesh_out, experiment.discretization(), last_q);
 
@@ -139,9 +138,10 @@ void run_bend(Registry& registry, const SimulateArgs& args, const MaterialParame
     throw InputError({"command line", 0, "--overhang-mm"}, "a bend simulation needs exactly one of --overhang-mm and --find-overhang");
   CantileverSetup setup;
   setup.angle_deg = args.angle_deg;
-  setup.width_mm = args.width_mm.value_or(25.0);
+  setup.width_mm = checked_argument(args.width_mm.value_or(25.0), limits::kStripWidth, "--width-mm");
+  if (args.overhang_mm) checked_argument(*args.overhang_mm, limits::kStripLength, "--overhang-mm");
   if (!args.resolution.empty()) {
-    const auto [across, along] = parse_resolution(args.resolution);
+    const auto [across, along] = parse_resolution(args.resolution, "--resolution");
     setup.cells_across = across;
     setup.cells_along = along;
   }
@@ -205,6 +205,7 @@ void add_simulate_command(CLI::App& app, Context& context) {
   cmd->add_flag("--json", args->json, "print one JSON object");
   cmd->add_flag("!--out-of-plane", args->planar, "tensile: solve in 3-D instead of holding the strip in its plane");
   cmd->callback([args, &context] {
+    checked_argument(args->angle_deg, limits::kAngle, "--angle-deg");
     const MaterialParameters p = read_params_file(args->params);
     if (args->test == "tensile")
       run_tensile(context.registry, *args, p);

@@ -11,7 +11,9 @@
 #include <CLI/CLI.hpp>
 #include <filesystem>
 #include <string>
+#include <utility>
 
+#include "core/input_limits.hpp"
 #include "core/registry.hpp"
 
 namespace twill {
@@ -22,6 +24,14 @@ struct Context {
   std::filesystem::path scripts_dir;   ///< the repository's scripts/ (plot helpers)
   std::string python = "/usr/bin/python3";  ///< Debian's python, which sees python3-matplotlib
 };
+
+// ---- Argument checks shared by the commands (app/command_args.cpp) ---------------------------
+
+/// "NxM" (cells across x along, e.g. 16x24) read strictly and checked against the memory limit
+/// of core/input_limits.hpp; errors are InputErrors naming `option` (e.g. "--resolution").
+std::pair<int, int> parse_resolution(const std::string& text, const std::string& option);
+/// `value` (given as `option`) checked against a physical range of core/input_limits.hpp.
+double checked_argument(double value, const PhysicalRange& range, const std::string& option);
 
 /// `twill list [CATEGORY]`: every registered name per category, with description and options.
 void add_list_command(CLI::App& app, Context& context);

@@ -9,6 +9,7 @@
 #include <system_error>
 
 #include "core/input_error.hpp"
+#include "core/input_limits.hpp"
 #include "core/yaml_reader.hpp"
 
 namespace twill {
@@ -180,20 +181,37 @@ void find_loading_peak(TensileRun& run) {
     if (e[i] < *hi - tolerance && *hi > *lo) run.has_unloading = true;
 }
 
+// A run the fit could use: at least two rows of the loading branch pull the strip (positive
+// extension and force). All-zero or all-negative forces (a sign or a column mix-up) are an
+// error here, not a run the repeat selection silently passes over.
+void check_usable(const TensileRun& run) {
+  std::size_t pulling = 0;
+  bool any_positive_force = false;
+  for (std::size_t i = 0; i < run.size(); ++i) {
+    any_positive_force = any_positive_force || run.force_N[i] > 0;
+    if (i <= run.peak_index && run.force_N[i] > 0 && run.extension_mm[i] > 0) ++pulling;
+  }
+  if (!any_positive_force)
+    throw InputError({run.path, run.row_line.front(), "force"},
+                     "no positive force in " + std::to_string(run.size()) +
+                         " rows (all zero or negative): a tensile run pulls the strip; check the force column's sign");
+  if (pulling < 2)
+    throw InputError({run.path, run.row_line.front(), ""},
+                     "fewer than 2 rows of the loading branch with positive extension and force: the run cannot be fitted");
+}
+
 // ---------------------------------------------------------------------------------------
 // fabric.yaml
 
-double positive(const YamlValue& v) {
+// A number in its physical range (core/input_limits.hpp), or an error with unit and range.
+double quantity(const YamlValue& v, const PhysicalRange& range) {
   const double x = v.as_double();
-  if (!(x > 0.0)) throw v.error("must be positive, got " + format_double(x));
+  const std::string violation = range_violation(x, range);
+  if (!violation.empty()) throw v.error(violation);
   return x;
 }
 
-double angle(const YamlValue& v) {
-  const double a = v.as_double();
-  if (std::abs(a) > 180.0) throw v.error("an angle in degrees within [-180, 180] is expected, got " + format_double(a));
-  return a;
-}
+double angle(const YamlValue& v) { return quantity(v, limits::kAngle); }
 
 std::string label_or_default(YamlMap& map, double angle_deg) {
   if (auto label = map.find("label")) {
@@ -213,15 +231,54 @@ TestRole read_role(YamlMap& map) {
   throw role->error("unknown role '" + text + "' (known roles: fit, validation)");
 }
 
+// A path listed in fabric.yaml, resolved inside the dataset folder. The contract says paths
+// are relative to the folder; after resolving `..` and symlinks the file must still be in it,
+// so a dataset can neither read nor make twill parse files elsewhere (`../../etc/passwd`).
+// Every error is located at the listing line of fabric.yaml.
+fs::path contained_path(const YamlValue& item, const fs::path& folder) {
+  const std::string listed = item.as_string();
+  const fs::path path(listed);
+  if (listed.empty()) throw item.error("an empty path (paths are relative to the dataset folder)");
+  if (path.is_absolute() || path.has_root_name() || path.has_root_directory())
+    throw item.error("an absolute path '" + excerpt(listed) +
+                     "': paths are relative to the dataset folder (dataset-format.md)");
+  const fs::path resolved = folder / path;
+  std::error_code ec;
+  const fs::path root = fs::canonical(folder, ec);
+  if (ec) throw item.error("cannot resolve the dataset folder " + folder.string() + ": " + ec.message());
+  const fs::path target = fs::weakly_canonical(resolved, ec);
+  if (ec) {
+    check_readable_file(resolved.string(), item.location());  // names a symlink loop as such
+    throw item.error("cannot resolve '" + excerpt(listed) + "': " + ec.message());
+  }
+  const fs::path inside = target.lexically_relative(root);
+  if (inside.empty() || *inside.begin() == "..")
+    throw item.error("the path '" + excerpt(listed) + "' leaves the dataset folder (it resolves to " +
+                     target.string() + "); paths must stay inside " + root.string());
+  check_readable_file(resolved.string(), item.location());
+  return resolved;
+}
+
+// Extensions as engineering strains within limits::kEngineeringStrain of the test's gauge.
+void check_strains(const TensileRun& run, double gauge_length_mm) {
+  for (std::size_t i = 0; i < run.size(); ++i) {
+    const std::string violation = range_violation(run.extension_mm[i] / gauge_length_mm, limits::kEngineeringStrain);
+    if (!violation.empty())
+      throw InputError({run.path, run.row_line[i], "extension"},
+                       "extension " + format_double(run.extension_mm[i]) + " mm on a " + format_double(gauge_length_mm) +
+                           " mm gauge: " + violation + " (is the column in mm?)");
+  }
+}
+
 TensileTest read_tensile_test(const YamlValue& v, const fs::path& folder) {
   YamlMap map(v);
   map.expect({"angle_deg", "label", "width_mm", "gauge_length_mm", "rate_mm_min", "role", "runs"});
   TensileTest t;
   t.angle_deg = angle(map.get("angle_deg"));
   t.label = label_or_default(map, t.angle_deg);
-  t.width_mm = positive(map.get("width_mm"));
-  t.gauge_length_mm = positive(map.get("gauge_length_mm"));
-  if (auto rate = map.find("rate_mm_min")) t.rate_mm_min = positive(*rate);
+  t.width_mm = quantity(map.get("width_mm"), limits::kStripWidth);
+  t.gauge_length_mm = quantity(map.get("gauge_length_mm"), limits::kStripLength);
+  if (auto rate = map.find("rate_mm_min")) t.rate_mm_min = quantity(*rate, limits::kCrossheadRate);
   t.role = read_role(map);
   const YamlValue runs = map.get("runs");
   map.finish();
@@ -229,10 +286,16 @@ TensileTest read_tensile_test(const YamlValue& v, const fs::path& folder) {
   if (items.empty()) throw runs.error("a tensile test needs at least one run file");
   for (const auto& item : items) {
     const std::string listed = item.as_string();
-    const fs::path resolved = folder / listed;
-    std::error_code ec;
-    if (!fs::is_regular_file(resolved, ec)) throw item.error("run file not found: " + resolved.string());
-    TensileRun run = read_tensile_run_csv(resolved.string());
+    const fs::path file = contained_path(item, folder);
+    TensileRun run;
+    try {
+      run = read_tensile_run_csv(file.string());
+      check_strains(run, t.gauge_length_mm);
+    } catch (const InputError& e) {
+      // The CSV's own location first (file, line, column), then where fabric.yaml lists it.
+      throw InputError(e.where(), e.reason() + " (run listed in " + item.file() + ":" +
+                                      std::to_string(item.line()) + ", key '" + item.path() + "')");
+    }
     run.listed_path = listed;
     t.runs.push_back(std::move(run));
   }
@@ -245,9 +308,9 @@ BendTest read_bend_test(const YamlValue& v) {
   BendTest b;
   b.angle_deg = angle(map.get("angle_deg"));
   b.label = label_or_default(map, b.angle_deg);
-  b.width_mm = positive(map.get("width_mm"));
+  b.width_mm = quantity(map.get("width_mm"), limits::kStripWidth);
   const YamlValue length = map.get("length_mm");
-  b.length_mm = positive(length);
+  b.length_mm = quantity(length, limits::kStripLength);
   const YamlValue chord = map.get("chord_angle_deg");
   b.chord_angle_deg = chord.as_double();
   if (!(b.chord_angle_deg > 0.0 && b.chord_angle_deg < 90.0))
@@ -255,7 +318,7 @@ BendTest read_bend_test(const YamlValue& v) {
   const YamlValue overhang = map.get("overhang_mm");
   map.finish();
   for (const auto& item : overhang.items()) {
-    const double value = positive(item);
+    const double value = quantity(item, limits::kStripLength);
     if (value >= b.length_mm)
       throw item.error("an overhang of " + format_double(value) + " mm does not fit on a strip of length_mm " +
                        format_double(b.length_mm));
@@ -299,6 +362,7 @@ std::string default_test_label(double angle_deg) {
 }
 
 TensileRun read_tensile_run_csv(const std::string& path) {
+  check_readable_file(path);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError({path, 0, ""}, "cannot open file");
   TensileRun run;
@@ -351,13 +415,21 @@ TensileRun read_tensile_run_csv(const std::string& path) {
       const auto c = static_cast<std::size_t>(column[q]);
       const auto value = parse_cell(cells[c]);
       if (!value)
-        throw InputError({path, line_number, header[c]}, "not a finite number: '" + cells[c] + "'");
+        throw InputError({path, line_number, excerpt(header[c])}, "not a finite number: '" + excerpt(cells[c]) + "'");
+      if (q == static_cast<int>(Quantity::Force)) {
+        const std::string violation = range_violation(*value * factor[q], limits::kForceMagnitude);
+        if (!violation.empty()) throw InputError({path, line_number, excerpt(header[c])}, violation);
+      }
       target[q]->push_back(*value * factor[q]);
     }
+    run.row_line.push_back(line_number);
   }
   if (header.empty()) throw InputError({path, 0, ""}, "empty file: no header line");
   if (run.extension_mm.empty()) throw InputError({path, header_line, ""}, "no data rows after the header");
+  if (run.size() < 2)
+    throw InputError({path, run.row_line[0], ""}, "only one data row: a force-extension curve needs at least 2");
   find_loading_peak(run);
+  check_usable(run);
   return run;
 }
 
@@ -372,8 +444,8 @@ Dataset read_dataset(const std::string& folder) {
   Dataset d;
   d.folder = folder;
   d.name = map.get("name").as_string();
-  d.areal_density_g_m2 = positive(map.get("areal_density_g_m2"));
-  d.thickness_mm = positive(map.get("thickness_mm"));
+  d.areal_density_g_m2 = quantity(map.get("areal_density_g_m2"), limits::kArealDensity);
+  d.thickness_mm = quantity(map.get("thickness_mm"), limits::kThickness);
   if (auto weave = map.find("weave")) d.weave = weave->as_string();
   const auto tensile = map.find("tensile");
   const auto bend = map.find("bend");

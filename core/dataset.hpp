@@ -12,7 +12,12 @@
 //   bend:    list of {angle_deg, label?, width_mm > 0, length_mm > 0,
 //                     chord_angle_deg in (0, 90), overhang_mm: non-empty list of values > 0}
 // `tensile` and `bend` are each optional, but a dataset needs at least one test. Run paths are
-// relative to the folder. Labels default from the angle: 90 "warp", 0 "weft", 45 "bias",
+// relative to the folder and must stay inside it after resolving `..` and symlinks; each must
+// be a regular file. Every number is checked against its physical range
+// (core/input_limits.hpp: widths, lengths, thickness, density, angles, rate; per CSV row the
+// force and the extension as a strain of the gauge); text must be valid UTF-8. A run needs
+// at least 2 rows, and 2 in its loading branch that pull the strip (positive extension and
+// force): anything else is an error naming the CSV and where fabric.yaml lists it. Labels default from the angle: 90 "warp", 0 "weft", 45 "bias",
 // otherwise "a<angle>" (e.g. "a22.5"); the labels of the tensile tests must differ (reports
 // and repeat selection refer to tests by label), likewise those of the bend tests.
 //
@@ -43,6 +48,7 @@ struct TensileRun {
   std::vector<double> force_N;       ///< clamp force along the strip axis [N]
   std::vector<double> time_s;        ///< [s]; empty when the file has no time column
   std::vector<double> lateral_strain;  ///< engineering strain across the width; empty if absent
+  std::vector<int> row_line;         ///< 1-based file line of each row (for messages)
   /// Index of the first row at the largest extension: rows [0, peak_index] are the loading
   /// branch.
   std::size_t peak_index = 0;

@@ -3,6 +3,7 @@
 #include <cassert>
 #include <charconv>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <system_error>
@@ -41,6 +42,7 @@ YamlValue::YamlValue(YAML::Node node, std::string file, std::string path)
 
 int YamlValue::line() const {
   if (!node_.IsDefined()) return 0;
+  if (node_.IsNull() && key_line_ > 0) return key_line_;
   const int zero_based = node_.Mark().line;
   return zero_based < 0 ? 0 : zero_based + 1;
 }
@@ -53,7 +55,7 @@ std::string YamlValue::describe() const {
   if (is_null()) return "an empty value (null)";
   if (node_.IsSequence()) return "a list";
   if (node_.IsMap()) return "a mapping";
-  return "'" + node_.Scalar() + "'";
+  return "'" + excerpt(node_.Scalar()) + "'";
 }
 
 double YamlValue::as_double() const {
@@ -89,6 +91,12 @@ bool YamlValue::as_bool() const {
 
 std::string YamlValue::as_string() const {
   if (!node_.IsScalar()) throw error("expected a text value, got " + describe());
+  // Checked here, where it is read: text flows into file names, reports and JSON, whose
+  // writers reject invalid UTF-8 (only after a whole fit, before this check).
+  const std::size_t bad = invalid_utf8_offset(node_.Scalar());
+  if (bad != std::string_view::npos)
+    throw error("not valid UTF-8 text (byte " + std::to_string(bad + 1) + " of '" + excerpt(node_.Scalar()) +
+                "'); save the file as UTF-8");
   return node_.Scalar();
 }
 
@@ -120,6 +128,8 @@ YamlMap::YamlMap(const YamlValue& value) : value_(value) {
     const YamlValue key_node(it->first, value.file(), value.path());
     if (!it->first.IsScalar()) throw key_node.error("a key must be plain text, got " + key_node.describe());
     const std::string key = it->first.Scalar();
+    if (invalid_utf8_offset(key) != std::string_view::npos)
+      throw key_node.error("a key must be valid UTF-8 text, got '" + excerpt(key) + "'");
     for (std::size_t i = 0; i < keys_in_order_.size(); ++i) {
       if (keys_in_order_[i] == key)
         throw InputError({value.file(), key_node.line(), child_path(key)},
@@ -142,7 +152,10 @@ bool YamlMap::has(const std::string& key) {
 std::optional<YamlValue> YamlMap::find(const std::string& key) {
   if (!has(key)) return std::nullopt;
   const YAML::Node& node = value_.node();
-  return YamlValue(node[key], value_.file(), child_path(key));
+  YamlValue found(node[key], value_.file(), child_path(key));
+  for (std::size_t i = 0; i < keys_in_order_.size(); ++i)
+    if (keys_in_order_[i] == key) found.set_key_line(key_lines_[i]);
+  return found;
 }
 
 YamlValue YamlMap::get(const std::string& key) {
@@ -176,11 +189,33 @@ YamlValue load_yaml_string(const std::string& text, const std::string& source_na
 }
 
 YamlValue load_yaml_file(const std::string& path) {
+  check_readable_file(path);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError({path, 0, ""}, "cannot open file");
   std::ostringstream text;
   text << in.rdbuf();
   return load_yaml_string(text.str(), path);
+}
+
+void check_readable_file(const std::string& path, const InputLocation& listed_at) {
+  namespace fs = std::filesystem;
+  // Where the message points: the file itself, or the line of the file that names it.
+  auto fail = [&](const std::string& what) {
+    if (listed_at.file.empty()) throw InputError({path, 0, ""}, what);
+    throw InputError(listed_at, what + ": " + path);
+  };
+  std::error_code ec;
+  const fs::file_status link = fs::symlink_status(path, ec);
+  if (ec || !fs::exists(link)) fail("cannot open file (no such file)");
+  const fs::file_status target = fs::status(path, ec);
+  if (ec) {
+    // ELOOP: a symlink cycle; ENOENT: a dangling symlink.
+    if (ec == std::errc::too_many_symbolic_link_levels) fail("a symlink loop, not a file");
+    fail("a symlink to nothing (" + ec.message() + ")");
+  }
+  if (fs::is_directory(target)) fail("a directory, not a file");
+  // Reading a FIFO, socket or device would block or never end: only regular files are read.
+  if (!fs::is_regular_file(target)) fail("a special file (FIFO, socket or device), not a regular file");
 }
 
 std::string format_double(double value) {

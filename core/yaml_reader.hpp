@@ -34,8 +34,11 @@ class YamlValue {
   const std::string& file() const { return file_; }
   /// Key path from the document root, e.g. `tensile[0].runs[1]` (empty for the root).
   const std::string& path() const { return path_; }
-  /// 1-based line of the node, 0 when unknown.
+  /// 1-based line of the node, 0 when unknown. An empty value (`key:` and nothing) is
+  /// located at its key's line (yaml-cpp marks it where the next token starts).
   int line() const;
+  /// The line to report for an empty value (set by YamlMap for its values).
+  void set_key_line(int line) { key_line_ = line; }
   InputLocation location() const { return {file_, line(), path_}; }
   /// An InputError located at this node.
   InputError error(const std::string& what) const;
@@ -69,6 +72,7 @@ class YamlValue {
   YAML::Node node_;
   std::string file_;
   std::string path_;
+  int key_line_ = 0;
 };
 
 /// A mapping read strictly: ask for keys, then call finish() to reject any other key.
@@ -102,6 +106,12 @@ class YamlMap {
   std::vector<int> key_lines_;
   std::set<std::string> known_;
 };
+
+/// Throws InputError unless `path` is a regular file (or a symlink to one): missing files,
+/// directories, symlink loops and special files (FIFOs would block the reader) each get their
+/// own message. With `listed_at` the error is located there (the fabric.yaml line that names
+/// the file) and names the path in its text.
+void check_readable_file(const std::string& path, const InputLocation& listed_at = {});
 
 /// Parses a YAML file; a missing file or a syntax error is an InputError with the line.
 YamlValue load_yaml_file(const std::string& path);

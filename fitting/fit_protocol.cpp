@@ -274,6 +274,13 @@ class Protocol {
     return report_;
   }
 
+  /// What the finished stages learned, when run() threw (run_fit's `finished`).
+  FitReport finished_so_far() const {
+    FitReport r = report_;
+    r.parameters = params_;
+    return r;
+  }
+
  private:
   void say(int level, const std::string& line) {
     if (progress_) progress_(level, line);
@@ -993,9 +1000,14 @@ class Protocol {
 }  // namespace
 
 FitReport run_fit(const Dataset& dataset, const Options& config, const Registry& registry,
-                  const FitProgress& progress) {
+                  const FitProgress& progress, FitReport* finished) {
   Protocol protocol(dataset, config, registry, progress);
-  return protocol.run();
+  try {
+    return protocol.run();
+  } catch (...) {
+    if (finished) *finished = protocol.finished_so_far();
+    throw;
+  }
 }
 
 }  // namespace twill

@@ -143,12 +143,22 @@ double linearised_l1_minimiser(const Eigen::VectorXd& f, const Eigen::VectorXd& 
 
 /// Runs the protocol. Throws InputError for a dataset the protocol cannot use (e.g. no warp
 /// test) and std::runtime_error when a stage fails outright (the message names the stage).
+/// When it throws and `finished` is given, *finished receives what the stages that finished
+/// learned (their records, notes, timings, the parameters so far), so a late failure does not
+/// throw an hour of work away (write_incomplete_fit_report()).
 FitReport run_fit(const Dataset& dataset, const Options& config, const Registry& registry,
-                  const FitProgress& progress);
+                  const FitProgress& progress, FitReport* finished = nullptr);
 
 /// Writes params.yaml, report.json (with every curve, for scripts/plot_fit.py), report.md and
 /// config.yaml (the resolved config) into `dir` (created if needed). `twill fit` writes into a
 /// staging folder and renames it only when everything, plots included, is complete.
 void write_fit_outputs(const FitReport& report, const Options& config, const std::string& dir);
+
+/// Writes report-incomplete.md and report-incomplete.json (with `"complete": false` and the
+/// error) and config.yaml into `dir`: the stages that finished before `error`, marked
+/// incomplete in their names, titles and content, and no params.yaml, so the folder never
+/// looks like a finished fit.
+void write_incomplete_fit_report(const FitReport& finished, const Options& config, const std::string& error,
+                                 const std::string& dir);
 
 }  // namespace twill

@@ -185,6 +185,10 @@ std::string report_markdown(const FitReport& r) {
   return md.str();
 }
 
+// JSON text; invalid UTF-8 (a folder name from the command line) is replaced (U+FFFD) rather
+// than thrown as json type_error 316 after a finished fit. Readers reject it in files.
+std::string dump(const json& j) { return j.dump(2, ' ', false, json::error_handler_t::replace) + "\n"; }
+
 void write_text(const fs::path& path, const std::string& text) {
   std::ofstream out(path);
   out << text;
@@ -198,8 +202,30 @@ void write_fit_outputs(const FitReport& report, const Options& config, const std
   fs::create_directories(d);
   write_params_file(report.parameters, (d / "params.yaml").string());
   write_config_file(config, (d / "config.yaml").string());
-  write_text(d / "report.json", report_json(report, config).dump(2) + "\n");
+  write_text(d / "report.json", dump(report_json(report, config)));
   write_text(d / "report.md", report_markdown(report));
+}
+
+void write_incomplete_fit_report(const FitReport& finished, const Options& config, const std::string& error,
+                                 const std::string& dir) {
+  const fs::path d(dir);
+  fs::create_directories(d);
+  write_config_file(config, (d / "config.yaml").string());
+  json j = report_json(finished, config);
+  j["complete"] = false;
+  j["error"] = error;
+  write_text(d / "report-incomplete.json", dump(j));
+  std::string md = report_markdown(finished);
+  const std::string banner =
+      "# INCOMPLETE twill fit: " + finished.dataset + "\n\n**The fit failed; this report holds only the stages "
+      "that finished before the failure. There is no params.yaml: the parameters below are intermediate.**\n\n"
+      "Error: `" + error + "`\n\n";
+  md.replace(0, md.find("\n\n") + 2, banner);  // the banner replaces the title line
+  md.erase(md.find("\n## Figures"));            // no figures are drawn for a failed fit
+  const std::string outputs = "Parameters: `params.yaml`; everything below is also in `report.json`";
+  if (const auto at = md.find(outputs); at != std::string::npos)
+    md.replace(at, outputs.size(), "Everything below is also in `report-incomplete.json`");
+  write_text(d / "report-incomplete.md", md);
 }
 
 }  // namespace twill

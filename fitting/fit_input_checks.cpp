@@ -1,0 +1,35 @@
+#include "fitting/fit_input_checks.hpp"
+
+#include <cmath>
+
+#include "core/input_limits.hpp"
+#include "core/yaml_reader.hpp"
+
+namespace twill {
+
+void check_fit_sizes(const Dataset& dataset, const Options& config, const ConfigKeyLocator& locate) {
+  const Options& res = config.get_section("resolution");
+  // In doubles: an absurd coarse_cells_across (up to 2^63) shifted by the levels must not wrap.
+  const double levels = static_cast<double>(res.get_int("levels"));
+  const double across = static_cast<double>(res.get_int("coarse_cells_across")) * std::exp2(levels - 1);
+  for (std::size_t i = 0; i < dataset.tensile.size(); ++i) {
+    const TensileTest& t = dataset.tensile[i];
+    const double along = std::max(1.0, std::round(across * t.gauge_length_mm / t.width_mm));
+    const std::string violation = mesh_size_violation(across, along);
+    if (!violation.empty())
+      throw InputError(locate("resolution.coarse_cells_across"),
+                       "the finest level (" + format_double(levels) + " levels) of tensile[" + std::to_string(i) +
+                           "] (" + t.label + ", " + format_double(t.width_mm) + " x " +
+                           format_double(t.gauge_length_mm) + " mm): " + violation);
+  }
+  const Options& bend = config.get_section("bend");
+  // Checked even when the dataset has no bend test: the key is wrong either way.
+  const double bend_across = static_cast<double>(bend.get_int("cells_across"));
+  const double bend_along = static_cast<double>(bend.get_int("cells_along"));
+  const std::string violation = mesh_size_violation(bend_across, bend_along);
+  if (!violation.empty())
+    throw InputError(locate(bend_across > bend_along ? "bend.cells_across" : "bend.cells_along"),
+                     "the cantilever: " + violation);
+}
+
+}  // namespace twill
