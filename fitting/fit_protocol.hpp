@@ -34,7 +34,7 @@
 //      reported (the fit's own estimate of its discretisation error), and a stage whose
 //      response changed by less than `resolution.change_tolerance` [3 %] skips the finer
 //      levels, while one that still changes by more at the last level gets up to
-//      `resolution.extra_levels` [1] more;
+//      `resolution.extra_levels` [0] more;
 //   7. bend (§5.2 step 7): thickness τ from the cantilever chord angles at the measured
 //      overhangs, with a ← a·τ0/τ so the tensile fits are unchanged;
 //   8. validation (§7): per validation run at the finest level, the angle offset Δθ
