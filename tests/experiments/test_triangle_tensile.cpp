@@ -126,7 +126,7 @@ TEST(TriangleTensileLocking, OneDiagonalPatternsLockInBiasAndConvergeSlowly) {
   // lies along one fibre family; the other family crosses the triangles, and a constant-strain
   // triangle cannot stretch it without extending that stiff fibre (locking). Measured worst
   // errors 8×12 / 16×24 / 32×48 (corrected reference): right +105 / +47.3 / +18.9 %, alternating
-  // +10.9 / +4.2 / … %.
+  // +10.9 / +4.2 / +1.85 %.
   // Asserted: the locked pattern is far stiffer at 16×24 (> 20 %, ten times alternating) and
   // still converges (its error falls by > 1.5× per refinement).
   const Strip right{"canvas", "bias", 45, TrianglePattern::Right};
