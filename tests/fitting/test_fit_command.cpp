@@ -2,6 +2,7 @@
 // the file, and no output folder is left behind looking complete (issue #6 acceptance).
 #include <gtest/gtest.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <cstdlib>
 #include <filesystem>
@@ -19,12 +20,18 @@ struct CommandResult {
 };
 
 CommandResult twill(const std::string& arguments) {
-  const fs::path log = fs::temp_directory_path() / "twill-fit-command.log";
+  // One log per test process and call: ctest runs these tests in parallel, and a shared log
+  // file let one test truncate another's output (seen on a clean-clone CI run).
+  static int call = 0;
+  const fs::path log = fs::temp_directory_path() /
+                       ("twill-fit-command-" + std::to_string(::getpid()) + "-" + std::to_string(call++) + ".log");
   const std::string cmd = std::string(TWILL_BINARY) + " " + arguments + " >" + log.string() + " 2>&1";
   const int raw = std::system(cmd.c_str());
   std::ifstream in(log);
   std::stringstream text;
   text << in.rdbuf();
+  in.close();
+  fs::remove(log);
   return {WIFEXITED(raw) ? WEXITSTATUS(raw) : -1, text.str()};
 }
 
