@@ -83,13 +83,16 @@ void TensileExperiment::set_angle_sensitivity(bool on) {
   angle_plus_.reset();
   angle_minus_.reset();
   if (!on) return;
-  for (double sign : {1.0, -1.0}) {
+  auto turned_by = [&](double offset_deg) {
     StripSpec turned = setup_.strip();
-    turned.angle_deg += sign * kAngleStepDeg;
-    (sign > 0 ? angle_plus_ : angle_minus_) = factory_(turned, discretization_->parameters());
-    if ((sign > 0 ? angle_plus_ : angle_minus_)->num_dofs() != discretization_->num_dofs())
+    turned.angle_deg += offset_deg;
+    std::unique_ptr<Discretization> d = factory_(turned, discretization_->parameters());
+    if (d->num_dofs() != discretization_->num_dofs())
       throw std::logic_error("angle sensitivity: the turned mesh has other dofs");
-  }
+    return d;
+  };
+  angle_plus_ = turned_by(kAngleStepDeg);
+  angle_minus_ = turned_by(-kAngleStepDeg);
 }
 
 double TensileExperiment::force_angle_derivative(

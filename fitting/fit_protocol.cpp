@@ -175,12 +175,17 @@ struct Stage {
   std::string stiffness;  // a11_Pa, ...
   std::string curve;      // eta1, ...
   Curve MaterialParameters::*curve_member;
+  std::optional<double> Cutoffs::*cutoff;  // the stage's own strain cutoff
+  // Its term of ψ (model.md §2) is stress_factor/2 · a · η(E²): a/2 η(E²) for a stretch,
+  // G12 η4(E12²) for the shear; the stress is stress_factor · a · E · η'(E²).
+  double stress_factor;
 };
 
 const std::vector<Stage>& stages() {
-  static const std::vector<Stage> s = {{"warp", 90.0, "a11_Pa", "eta1", &MaterialParameters::eta1},
-                                       {"weft", 0.0, "a22_Pa", "eta3", &MaterialParameters::eta3},
-                                       {"bias", 45.0, "G12_Pa", "eta4", &MaterialParameters::eta4}};
+  static const std::vector<Stage> s = {
+      {"warp", 90.0, "a11_Pa", "eta1", &MaterialParameters::eta1, &Cutoffs::E11_max, 1.0},
+      {"weft", 0.0, "a22_Pa", "eta3", &MaterialParameters::eta3, &Cutoffs::E22_max, 1.0},
+      {"bias", 45.0, "G12_Pa", "eta4", &MaterialParameters::eta4, &Cutoffs::E12_max, 2.0}};
   return s;
 }
 
@@ -615,8 +620,7 @@ class Protocol {
   static constexpr int kResponseSamples = 20;
   static constexpr double kResponseStrainWithoutCutoff = 0.1;
   std::vector<double> membrane_strains(const Stage& stage) const {
-    const Cutoffs& c = params_.cutoffs;
-    const std::optional<double>& cutoff = stage.angle_deg == 90.0 ? c.E11_max : stage.angle_deg == 0.0 ? c.E22_max : c.E12_max;
+    const std::optional<double>& cutoff = params_.cutoffs.*(stage.cutoff);
     const double top = cutoff ? *cutoff : kResponseStrainWithoutCutoff;
     std::vector<double> e;
     for (int i = 1; i <= kResponseSamples; ++i) e.push_back(top * i / kResponseSamples);
@@ -632,11 +636,9 @@ class Protocol {
     for (int i : map.free_indices()) s.values.push_back(flat[i]);
     const double stiffness = flat[params_.index_of(stage.stiffness)];
     s.stiffness_N_per_m = params_.thickness_m * stiffness;
-    // The stage's own term of ψ (model.md §2): a/2 η(E²) for a stretch, G12 η4(E12²) for the
-    // shear, whose stress is a E η'(E²) and 2 G12 E12 η4'(E12²).
-    const double factor = stage.angle_deg == 45.0 ? 2.0 : 1.0;
     for (double e : membrane_strains(stage))
-      s.response_N_per_m.push_back(factor * s.stiffness_N_per_m * e * evaluate_curve(params_.*(stage.curve_member), e * e).d1);
+      s.response_N_per_m.push_back(stage.stress_factor * s.stiffness_N_per_m * e *
+                                   evaluate_curve(params_.*(stage.curve_member), e * e).d1);
     return s;
   }
 
@@ -665,6 +667,16 @@ class Protocol {
     }
     r.response_strain = membrane_strains(stage)[worst];
     return r;
+  }
+
+  /// What the ladder does after `level` (of the configured levels(), up to `last` with the
+  /// extra ones), in the report's words.
+  std::string ladder_decision(bool settled, int level, int last) const {
+    const bool configured_left = level < levels() - 1;
+    if (settled) return configured_left ? "settled: finer levels skipped" : "settled";
+    if (configured_left) return "refined further";
+    if (level < last) return "above tolerance at the last level: one more level";
+    return "above tolerance, no level left (resolution.extra_levels)";
   }
 
   /// Phase B: every level, the coarsest included, refits each stage from the previous solution
@@ -706,14 +718,7 @@ class Protocol {
             100 * r.response_change, r.response_strain, r.changes.back().name,
             100 * (r.changes.back().to - r.changes.back().from) / r.changes.back().to, r.from_resolution,
             r.to_resolution, 100 * tolerance);
-        if (settled)
-          r.decision = level < levels() - 1 ? "settled: finer levels skipped" : "settled";
-        else if (level < levels() - 1)
-          r.decision = "refined further";
-        else if (level < last)
-          r.decision = "above tolerance at the last level: one more level";
-        else
-          r.decision = "above tolerance, no level left (resolution.extra_levels)";
+        r.decision = ladder_decision(settled, level, last);
         note(r.stage + ": " + change + ": " + r.decision);
         if (!settled) still_open.push_back(stage);
         report_.refinement.push_back(std::move(r));
