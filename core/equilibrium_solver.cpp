@@ -475,21 +475,41 @@ ContinuationSummary EquilibriumSolver::solve_continuation(int num_steps,
   ContinuationSummary summary;
   Eigen::VectorXd previous, before_previous, guess;
   Eigen::VectorXd fixed_now, fixed_previous, fixed_before;
+  Eigen::MatrixXd response, previous_response;  // a_i and a_{i−1} of kTangent (free dofs)
   int equilibria = 0;
   for (int step = 0; step < num_steps; ++step) {
     apply_step(step, q);
-    if (options.extrapolate && equilibria >= 2) {
+    if (equilibria >= 1) {
       dofs_.gather_fixed(*q, &fixed_now);
       dofs_.gather_fixed(previous, &fixed_previous);
+    }
+    // ρ = ⟨Δc_i, Δc_{i−1}⟩ / ‖Δc_{i−1}‖²: how far this step goes relative to the last one.
+    const auto step_ratio = [&] {
       dofs_.gather_fixed(before_previous, &fixed_before);
       const Eigen::VectorXd last_move = fixed_previous - fixed_before;
       const double last_move2 = last_move.squaredNorm();
-      const double ratio =
-          last_move2 > 0 ? last_move.dot(fixed_now - fixed_previous) / last_move2 : 1.0;
+      return last_move2 > 0 ? last_move.dot(fixed_now - fixed_previous) / last_move2 : 1.0;
+    };
+    bool predicted = false;
+    if (options.predictor == ContinuationPredictor::kSecant && equilibria >= 2) {
+      const double ratio = step_ratio();
       guess = *q;
-      for (int dof : dofs_.free_dofs()) {
-        guess[dof] = previous[dof] + ratio * (previous[dof] - before_previous[dof]);
+      for (int dof : dofs_.free_dofs()) guess[dof] = previous[dof] + ratio * (previous[dof] - before_previous[dof]);
+      predicted = true;
+    } else if (options.predictor == ContinuationPredictor::kTangent && equilibria >= 1 &&
+               factor_at_solution_) {
+      solve_free_free(-(k_fc_ * (fixed_now - fixed_previous)), &response);
+      Eigen::VectorXd move = response.col(0);
+      if (equilibria >= 2 && previous_response.size() == response.size()) {
+        const double ratio = step_ratio();
+        move += 0.5 * ratio * (response.col(0) - ratio * previous_response.col(0));
       }
+      previous_response = response;
+      guess = *q;
+      dofs_.add_to_free(1.0, move, &guess);
+      predicted = true;
+    }
+    if (predicted) {
       const double psi_plain = discretization_.energy(*q, nullptr, nullptr);
       const double psi_guess = discretization_.energy(guess, nullptr, nullptr);
       if (std::isfinite(psi_guess) && (!(psi_guess >= psi_plain))) {

@@ -548,9 +548,12 @@ struct PulledChain {
 
 TEST(EquilibriumSolver, ContinuationFollowsTheScheduleFromEquilibriumToEquilibrium) {
   PulledChain chain;
-  int total_iterations[2] = {0, 0};
-  Eigen::VectorXd final_q[2];
-  for (int extrapolate = 0; extrapolate < 2; ++extrapolate) {
+  const ContinuationPredictor predictors[] = {ContinuationPredictor::kPrevious, ContinuationPredictor::kSecant,
+                                              ContinuationPredictor::kTangent};
+  const char* names[] = {"previous equilibrium", "secant", "tangent"};
+  int total_iterations[3] = {0, 0, 0};
+  Eigen::VectorXd final_q[3];
+  for (int k = 0; k < 3; ++k) {
     EquilibriumSolver solver(chain.network, chain.ends());
     Eigen::VectorXd q = chain.start();
     std::vector<int> observed_steps;
@@ -566,7 +569,7 @@ TEST(EquilibriumSolver, ContinuationFollowsTheScheduleFromEquilibriumToEquilibri
       pull.push_back(solver.reaction()[3]);  // x-force the right support applies
     };
     ContinuationOptions options;
-    options.extrapolate = extrapolate == 1;
+    options.predictor = predictors[k];
     const ContinuationSummary summary =
         solver.solve_continuation(PulledChain::kSteps, &PulledChain::apply, &q, observer, options);
     ASSERT_TRUE(summary.completed) << summary.message;
@@ -582,20 +585,23 @@ TEST(EquilibriumSolver, ContinuationFollowsTheScheduleFromEquilibriumToEquilibri
       EXPECT_GT(pull[i], pull[i - 1]);
     }
     EXPECT_LT(sag.back(), 0.0);
-    total_iterations[extrapolate] = summary.total_newton_iterations;
-    final_q[extrapolate] = q;
-    if (extrapolate == 1) {
+    total_iterations[k] = summary.total_newton_iterations;
+    final_q[k] = q;
+    if (k > 0) {
       EXPECT_GE(summary.extrapolations_used, 1);
     }
     std::printf(
-        "continuation (%s): %d steps, %d Newton iterations, %d extrapolated starts, "
+        "continuation (%s): %d steps, %d Newton iterations, %d predicted starts, "
         "%.2e s\n",
-        extrapolate ? "extrapolated" : "previous equilibrium", summary.steps_completed,
+        names[k], summary.steps_completed,
         summary.total_newton_iterations, summary.extrapolations_used, summary.wall_time_s);
   }
-  // Measured: extrapolation saves Newton iterations on this schedule.
+  // Measured: each predictor saves Newton iterations over the one before on this schedule,
+  // and all three end at the same equilibrium.
   EXPECT_LT(total_iterations[1], total_iterations[0]);
+  EXPECT_LE(total_iterations[2], total_iterations[1]);
   EXPECT_LT((final_q[0] - final_q[1]).lpNorm<Eigen::Infinity>(), 1e-10);
+  EXPECT_LT((final_q[0] - final_q[2]).lpNorm<Eigen::Infinity>(), 1e-10);
 
   // The last equilibrium equals a direct solve at the last end position.
   EquilibriumSolver direct(chain.network, chain.ends());
@@ -615,8 +621,12 @@ TEST(EquilibriumSolver, ContinuationStopsAtTheFirstFailedStep) {
   const auto schedule = [](int step, Eigen::VectorXd* x) {
     (*x)[3 * PulledChain::kSegments] = step == 0 ? PulledChain::end_x(0) : 1.3;
   };
+  // The plain start: the tangent predictor would land step 1 within one Newton iteration of
+  // this chain's equilibrium, and this test is about what happens when a step fails.
+  ContinuationOptions plain;
+  plain.predictor = ContinuationPredictor::kPrevious;
   const ContinuationSummary summary = solver.solve_continuation(
-      3, schedule, &q, [&](int, const Eigen::VectorXd&, const EquilibriumSummary&) { ++observed; });
+      3, schedule, &q, [&](int, const Eigen::VectorXd&, const EquilibriumSummary&) { ++observed; }, plain);
   EXPECT_FALSE(summary.completed);
   EXPECT_EQ(summary.failed_step, 1);
   EXPECT_EQ(summary.steps_completed, 1);
