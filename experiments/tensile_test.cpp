@@ -4,6 +4,10 @@
 #include <chrono>
 #include <cmath>
 #include <numbers>
+#include <optional>
+
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 #include <stdexcept>
 
 #include "core/constrained_dofs.hpp"
@@ -95,13 +99,16 @@ void TensileExperiment::set_angle_sensitivity(bool on) {
   angle_minus_ = turned_by(-kAngleStepDeg);
 }
 
-double TensileExperiment::force_angle_derivative(
-    const Eigen::VectorXd& q, const std::vector<std::pair<int, double>>& clamp_x) const {
+void TensileExperiment::add_angle_derivative(const EquilibriumSolver& solver, const Eigen::VectorXd& q,
+                                             const std::vector<std::pair<int, double>>& clamp_x,
+                                             TensilePoint* p) const {
   Eigen::VectorXd plus, minus;
   angle_plus_->energy(q, &plus, nullptr);
   angle_minus_->energy(q, &minus, nullptr);
   const Eigen::MatrixXd dg_dangle = (plus - minus) / (2 * kAngleStepDeg);
-  return EquilibriumSensitivity(solver_, dg_dangle).reaction_derivative(clamp_x)[0];
+  const EquilibriumSensitivity sensitivity(solver, dg_dangle);
+  p->dforce_dangle = sensitivity.reaction_derivative(clamp_x)[0];
+  if (keep_states_) p->dq_dangle = sensitivity.position_derivatives().col(0);
 }
 
 double TensileExperiment::force_from_gradient(const Eigen::VectorXd& gradient) const {
@@ -165,19 +172,19 @@ void TensileExperiment::set_sensitivity_parameters(const std::vector<int>& flat_
   sensitivity_parameters_ = flat_indices;
 }
 
-TensilePoint TensileExperiment::measure(double extension_mm, const Eigen::VectorXd& q,
-                                        const EquilibriumSummary& summary) const {
+TensilePoint TensileExperiment::measure(const EquilibriumSolver& solver, double extension_mm,
+                                        const Eigen::VectorXd& q, const EquilibriumSummary& summary) const {
   TensilePoint p;
   p.extension_mm = extension_mm;
-  p.force_N = force_from_gradient(solver_.gradient());
+  p.force_N = force_from_gradient(solver.gradient());
   p.lateral_strain = lateral_strain(q);
   p.solve = summary;
   std::vector<std::pair<int, double>> clamp_x;
   clamp_x.reserve(moving_nodes_.size());
   for (int n : moving_nodes_) clamp_x.emplace_back(3 * n, 1.0);
-  if (angle_plus_) p.dforce_dangle = force_angle_derivative(q, clamp_x);
+  if (angle_plus_) add_angle_derivative(solver, q, clamp_x, &p);
   if (!sensitivity_parameters_.empty()) {
-    const EquilibriumSensitivity sens(solver_, q, sensitivity_parameters_);
+    const EquilibriumSensitivity sens(solver, q, sensitivity_parameters_);
     p.dforce_dk = sens.reaction_derivative(clamp_x);
     p.dlateral_strain_dk = sens.observable_derivative(lateral_strain_gradient(q));
     if (keep_states_) p.dq_dk = sens.position_derivatives();
@@ -204,7 +211,7 @@ TensileCurve TensileExperiment::run(const std::vector<double>& extensions_mm,
     for (int n : moving_nodes_) (*x)[3 * n] = rest[3 * n] + u;
   };
   auto on_step = [&](int step, const Eigen::VectorXd& x, const EquilibriumSummary& summary) {
-    curve.points.push_back(measure(extensions_mm[static_cast<size_t>(step)], x, summary));
+    curve.points.push_back(measure(solver_, extensions_mm[static_cast<size_t>(step)], x, summary));
     if (observer) observer(step, x, solver_);
   };
   const ContinuationSummary summary = solver_.solve_continuation(
@@ -216,46 +223,67 @@ TensileCurve TensileExperiment::run(const std::vector<double>& extensions_mm,
   return curve;
 }
 
+EquilibriumSolver& TensileExperiment::chunk_solver(size_t chunk) {
+  if (chunk == 0) return solver_;
+  while (chunk_solvers_.size() < chunk)
+    chunk_solvers_.push_back(std::make_unique<EquilibriumSolver>(*discretization_, fixed_dofs_, solver_.options()));
+  return *chunk_solvers_[chunk - 1];
+}
+
 TensileCurve TensileExperiment::run_from(const std::vector<double>& extensions_mm,
-                                         const std::vector<Eigen::VectorXd>& initial_guesses,
-                                         const EquilibriumObserver& observer) {
+                                         const std::vector<Eigen::VectorXd>& initial_guesses) {
   if (initial_guesses.size() != extensions_mm.size())
     throw std::invalid_argument("run_from: " + std::to_string(initial_guesses.size()) +
                                 " initial guesses for " + std::to_string(extensions_mm.size()) +
                                 " extensions");
-  const auto start = std::chrono::steady_clock::now();
   const Eigen::VectorXd& rest = discretization_->rest_positions();
-  TensileCurve curve;
-  curve.completed = true;
-  Eigen::VectorXd previous;
-  for (size_t i = 0; i < extensions_mm.size(); ++i) {
-    const double u = 1e-3 * extensions_mm[i];
-    auto with_schedule = [&](Eigen::VectorXd x) {
-      for (int n : fixed_dofs_) x[n] = rest[n];  // held dofs at rest, then the moving clamp
-      for (int n : moving_nodes_) x[3 * n] = rest[3 * n] + u;
-      return x;
-    };
+  for (size_t i = 0; i < initial_guesses.size(); ++i)
     if (initial_guesses[i].size() != rest.size())
       throw std::invalid_argument("run_from: initial guess " + std::to_string(i) + " has " +
                                   std::to_string(initial_guesses[i].size()) + " entries, expected " +
                                   std::to_string(rest.size()));
-    Eigen::VectorXd q = with_schedule(initial_guesses[i]);
-    EquilibriumSummary summary = solver_.solve(&q);
-    curve.newton_iterations += summary.newton_iterations;
-    if (!summary.converged && previous.size() == q.size()) {
-      // The predictor was off (e.g. a large optimiser step): fall back to continuation.
-      q = with_schedule(previous);
-      summary = solver_.solve(&q);
-      curve.newton_iterations += summary.newton_iterations;
-    }
-    if (!summary.converged) {
+  const auto start = std::chrono::steady_clock::now();
+  const size_t n = extensions_mm.size();
+  auto with_schedule = [&](size_t i, Eigen::VectorXd x) {
+    for (int dof : fixed_dofs_) x[dof] = rest[dof];  // held dofs at rest, then the moving clamp
+    for (int node : moving_nodes_) x[3 * node] = rest[3 * node] + 1e-3 * extensions_mm[i];
+    return x;
+  };
+  struct Solved {
+    Eigen::VectorXd q;
+    EquilibriumSummary summary;
+    std::optional<TensilePoint> point;  ///< measured when converged
+  };
+  std::vector<Solved> solved(n);
+  // One point from its own guess with the chunk's solver, measured while its factor is valid.
+  auto solve_point = [&](EquilibriumSolver& solver, size_t i, const Eigen::VectorXd& guess) {
+    Solved& s = solved[i];
+    s.q = with_schedule(i, guess);
+    const EquilibriumSummary summary = solver.solve(&s.q);
+    s.summary.newton_iterations += summary.newton_iterations;
+    const int iterations = s.summary.newton_iterations;
+    s.summary = summary;
+    s.summary.newton_iterations = iterations;
+    if (summary.converged) s.point = measure(solver, extensions_mm[i], s.q, summary);
+  };
+  const size_t chunks = std::min(n, static_cast<size_t>(std::max(1, tbb::this_task_arena::max_concurrency())));
+  for (size_t c = 0; c < chunks; ++c) chunk_solver(c);  // created here, not inside the tasks
+  tbb::parallel_for(size_t{0}, chunks, [&](size_t c) {
+    for (size_t i = c * n / chunks; i < (c + 1) * n / chunks; ++i) solve_point(chunk_solver(c), i, initial_guesses[i]);
+  });
+  // In schedule order: a point whose guess failed is retried from the previous equilibrium
+  // (the predictor was off, e.g. a large optimiser step); the curve ends at the first failure.
+  TensileCurve curve;
+  curve.completed = true;
+  for (size_t i = 0; i < n; ++i) {
+    if (!solved[i].point && i > 0) solve_point(solver_, i, solved[i - 1].q);
+    curve.newton_iterations += solved[i].summary.newton_iterations;
+    if (!solved[i].point) {
       curve.completed = false;
-      curve.message = "extension " + std::to_string(extensions_mm[i]) + " mm: " + summary.message;
+      curve.message = "extension " + std::to_string(extensions_mm[i]) + " mm: " + solved[i].summary.message;
       break;
     }
-    curve.points.push_back(measure(extensions_mm[i], q, summary));
-    if (observer) observer(static_cast<int>(i), q, solver_);
-    previous = q;
+    curve.points.push_back(std::move(*solved[i].point));
   }
   curve.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return curve;

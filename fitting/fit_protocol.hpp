@@ -38,7 +38,9 @@
 //   7. bend (§5.2 step 7): thickness τ from the cantilever chord angles at the measured
 //      overhangs, with a ← a·τ0/τ so the tensile fits are unchanged;
 //   8. validation (§7): per validation run at the finest level, the angle offset Δθ
-//      minimising its error by a 1-D Newton search with the exact dF/dθ, at most
+//      minimising its error by a 1-D Newton search (the exact dF/dθ at the nominal angle, the
+//      secant through the last two samples after that; strips at an offset are warm-started
+//      from the nominal strip's q + Δθ dq/dθ), at most
 //      `validation.offset_iterations` [3] steps, each minimising the linearised error exactly,
 //      within ±`validation.max_offset_deg` [10°] and rounded to
 //      `validation.offset_resolution_deg` [0.05°]; the error with the best offset and without

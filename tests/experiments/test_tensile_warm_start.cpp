@@ -1,0 +1,103 @@
+// TensileExperiment::run_from: points warm-started from q_i + ∂q_i/∂k·Δk (the fit's
+// evaluations) are solved in parallel chunks, one solver per chunk. The curve must not depend
+// on how many threads solved it, must equal a continuation run at the same parameters, and a
+// point whose guess fails must be retried from the previous equilibrium in schedule order.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include <tbb/global_control.h>
+
+#include "core/params_io.hpp"
+#include "discretizations/catmull_clark_kl/catmull_clark_kl.hpp"
+#include "experiments/tensile_test.hpp"
+
+namespace twill {
+namespace {
+
+// Converged far below the comparison's tolerance, so differences are the solver's round-off.
+EquilibriumOptions tight_solver() {
+  EquilibriumOptions o;
+  o.gradient_tolerance = 1e-11;
+  o.decrement_tolerance = 1e-22;
+  return o;
+}
+
+struct WarmStartCase {
+  const std::vector<double> extensions_mm{1.0, 2.0, 4.0, 6.0, 8.0, 10.0};
+  DiscretizationFactory factory = [](const StripSpec& s, const MaterialParameters& p) -> std::unique_ptr<Discretization> {
+    return std::make_unique<CatmullClarkKL>(s, p);
+  };
+  TensileSetup setup;
+  MaterialParameters anchor, moved;
+  std::vector<Eigen::VectorXd> guesses;
+
+  WarmStartCase() {
+    setup.angle_deg = 45.0;  // off-axis: every parameter family is active
+    setup.cells_across = 4;
+    setup.cells_along = 6;
+    anchor = read_params_file(std::string(TWILL_SHARED_DIR) + "/data/reference/poplin/params.yaml");
+    moved = anchor;
+    moved.G12_Pa *= 1.02;  // an optimiser's step
+    TensileExperiment e(setup, factory, anchor, tight_solver());
+    const int g12 = anchor.index_of("G12_Pa");
+    e.set_sensitivity_parameters({g12});
+    e.set_keep_states(true);
+    const TensileCurve c = e.run(extensions_mm);
+    if (!c.completed) throw std::runtime_error("anchor curve: " + c.message);
+    const double dk = moved.G12_Pa - anchor.G12_Pa;
+    for (const TensilePoint& p : c.points) guesses.push_back(p.q + p.dq_dk.col(0) * dk);
+  }
+
+  TensileCurve warm(const std::vector<Eigen::VectorXd>& starts, int threads) const {
+    const tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<size_t>(threads));
+    TensileExperiment e(setup, factory, moved, tight_solver());
+    return e.run_from(extensions_mm, starts);
+  }
+};
+
+constexpr double kAgreement = 1e-9;  // relative force; the solves converge to ~1e-11 of F
+
+TEST(TensileWarmStart, SameCurveForAnyNumberOfThreadsAndAsByContinuation) {
+  const WarmStartCase c;
+  TensileExperiment reference(c.setup, c.factory, c.moved, tight_solver());
+  const TensileCurve continued = reference.run(c.extensions_mm);
+  ASSERT_TRUE(continued.completed) << continued.message;
+  for (int threads : {1, 2, 3}) {
+    const TensileCurve warm = c.warm(c.guesses, threads);
+    ASSERT_TRUE(warm.completed) << warm.message;
+    ASSERT_EQ(warm.points.size(), c.extensions_mm.size());
+    for (size_t i = 0; i < warm.points.size(); ++i) {
+      EXPECT_EQ(warm.points[i].extension_mm, c.extensions_mm[i]);
+      EXPECT_NEAR(warm.points[i].force_N, continued.points[i].force_N, kAgreement * continued.points[i].force_N)
+          << threads << " threads, point " << i;
+    }
+    // Warm starts this close need fewer Newton iterations than continuation.
+    EXPECT_LT(warm.newton_iterations, continued.newton_iterations) << threads << " threads";
+  }
+}
+
+TEST(TensileWarmStart, FailedGuessIsRetriedFromThePreviousEquilibrium) {
+  const WarmStartCase c;
+  std::vector<Eigen::VectorXd> starts = c.guesses;
+  starts[3].setConstant(std::numeric_limits<double>::quiet_NaN());  // its solve fails at once
+  const TensileCurve one = c.warm(c.guesses, 2);
+  const TensileCurve retried = c.warm(starts, 2);
+  ASSERT_TRUE(retried.completed) << retried.message;
+  for (size_t i = 0; i < retried.points.size(); ++i)
+    EXPECT_NEAR(retried.points[i].force_N, one.points[i].force_N, kAgreement * one.points[i].force_N) << i;
+
+  // The first point has no previous equilibrium: the curve ends there, with the reason.
+  starts = c.guesses;
+  starts[0].setConstant(std::numeric_limits<double>::quiet_NaN());
+  const TensileCurve failed = c.warm(starts, 2);
+  EXPECT_FALSE(failed.completed);
+  EXPECT_TRUE(failed.points.empty());
+  EXPECT_NE(failed.message.find("extension 1.0"), std::string::npos) << failed.message;
+}
+
+}  // namespace
+}  // namespace twill
