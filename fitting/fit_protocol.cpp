@@ -43,8 +43,12 @@ OptionSchema fit_config_schema() {
   // A finer level starts at the coarser optimum and only corrects the discretisation change:
   // measured (canvas, Gauss–Newton, 32×48 warp) ε went 1.8103e-4 → 1.3491e-4 in one iteration,
   // then 3 more iterations and 12 rejected trials (14 of 16 curve evaluations, 30 s) moved
-  // it by 1e-4 relative, i.e. the average error by ~5e-5 of itself.
-  stop.add_double("refine_function_tolerance", 1e-4,
+  // it by 1e-4 relative, i.e. the average error by ~5e-5 of itself. 1 % rather than 1e-4
+  // (2026-12-02, canvas, back to back): the 32×48 bias refit stops after 3 iterations
+  // instead of 5, the fit takes 117 s instead of 132 s, τ·G12 moves by 1.2e-4 and τ·a11,
+  // τ·a22 by 2e-5 relative, every fit error is unchanged to 1e-5 — far inside the
+  // discretisation error the ladder reports at that level (3.4 % response change).
+  stop.add_double("refine_function_tolerance", 1e-2,
                   "relative change of the objective per iteration at each refit of the ladder").at_least(0.0);
   OptionSchema& init = s.add_section("initial_guess", "uniform-strain initial guesses (paper §5.3)");
   init.add_string("optimizer", "gauss-newton", "optimiser of the uniform-strain fits")
