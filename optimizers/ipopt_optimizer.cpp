@@ -360,7 +360,14 @@ void IpoptOptimizer::run(CountedProblem& problem, Eigen::VectorXd x0,
       result.x = problem.best_x();
     }
   }
-  if (const auto* at = tnlp->cached(result.x)) {
+  // Ipopt can end at a trial point whose evaluation failed (no value, no gradient; seen on
+  // the poplin example, where it crashed here): report the best evaluated point instead.
+  const auto* at = tnlp->cached(result.x);
+  if (at && !std::isfinite(at->value) && problem.has_best()) {
+    result.x = problem.best_x();
+    at = tnlp->cached(result.x);
+  }
+  if (at && std::isfinite(at->value) && at->gradient.size() == at->x.size()) {
     result.summary.final_value = at->value;
     result.summary.final_gradient_norm =
         projected_gradient_norm(at->x, at->gradient, problem.lower(), problem.upper());

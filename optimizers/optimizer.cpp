@@ -148,6 +148,9 @@ void CountedProblem::record_line_search(const LineSearchRecord& record) {
 
 double projected_gradient_norm(const Eigen::VectorXd& x, const Eigen::VectorXd& gradient,
                                const Eigen::VectorXd& lower, const Eigen::VectorXd& upper) {
+  if (gradient.size() != x.size() || lower.size() != x.size() || upper.size() != x.size())
+    throw std::invalid_argument(fmt::format("projected_gradient_norm: x has {} entries, gradient {}, bounds {} / {}",
+                                            x.size(), gradient.size(), lower.size(), upper.size()));
   double norm = 0.0;
   for (Eigen::Index i = 0; i < x.size(); ++i) {
     const double projected = std::clamp(x[i] - gradient[i], lower[i], upper[i]);

@@ -101,6 +101,9 @@ TEST(BoxHelpers, ProjectedGradientIgnoresOutwardComponentsAtBounds) {
   // 0.5 → clamp(0.5 + 2, ·) = 1, a projected step of 0.5.
   EXPECT_EQ(projected_gradient_norm(x, Eigen::Vector3d(3.0, 0.25, -2.0), lower, upper), 0.5);
   EXPECT_EQ(projected_gradient_norm(x, Eigen::Vector3d(-3.0, 0.0, 0.0), lower, upper), 1.0);
+  // A failed evaluation has no gradient: an error, not a read through a null pointer (the
+  // Ipopt adapter once reached here with one and crashed on the poplin example).
+  EXPECT_THROW(projected_gradient_norm(x, Eigen::VectorXd(), lower, upper), std::invalid_argument);
 }
 
 TEST(BoxHelpers, StepsStayInTheBox) {
