@@ -251,7 +251,8 @@ TensileCurve TensileExperiment::run_from(const std::vector<double>& extensions_m
   };
   struct Solved {
     Eigen::VectorXd q;
-    EquilibriumSummary summary;
+    EquilibriumSummary summary;  ///< of the last attempt
+    int newton_iterations = 0;   ///< over all attempts
     std::optional<TensilePoint> point;  ///< measured when converged
   };
   std::vector<Solved> solved(n);
@@ -259,12 +260,9 @@ TensileCurve TensileExperiment::run_from(const std::vector<double>& extensions_m
   auto solve_point = [&](EquilibriumSolver& solver, size_t i, const Eigen::VectorXd& guess) {
     Solved& s = solved[i];
     s.q = with_schedule(i, guess);
-    const EquilibriumSummary summary = solver.solve(&s.q);
-    s.summary.newton_iterations += summary.newton_iterations;
-    const int iterations = s.summary.newton_iterations;
-    s.summary = summary;
-    s.summary.newton_iterations = iterations;
-    if (summary.converged) s.point = measure(solver, extensions_mm[i], s.q, summary);
+    s.summary = solver.solve(&s.q);
+    s.newton_iterations += s.summary.newton_iterations;  // a retry adds to the first attempt
+    if (s.summary.converged) s.point = measure(solver, extensions_mm[i], s.q, s.summary);
   };
   const size_t chunks = std::min(n, static_cast<size_t>(std::max(1, tbb::this_task_arena::max_concurrency())));
   for (size_t c = 0; c < chunks; ++c) chunk_solver(c);  // created here, not inside the tasks
@@ -277,7 +275,7 @@ TensileCurve TensileExperiment::run_from(const std::vector<double>& extensions_m
   curve.completed = true;
   for (size_t i = 0; i < n; ++i) {
     if (!solved[i].point && i > 0) solve_point(solver_, i, solved[i - 1].q);
-    curve.newton_iterations += solved[i].summary.newton_iterations;
+    curve.newton_iterations += solved[i].newton_iterations;
     if (!solved[i].point) {
       curve.completed = false;
       curve.message = "extension " + std::to_string(extensions_mm[i]) + " mm: " + solved[i].summary.message;
