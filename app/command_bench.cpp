@@ -26,7 +26,7 @@
 #include "core/discretization_registry.hpp"
 #include "core/input_error.hpp"
 #include "core/params_io.hpp"
-#include "experiments/tensile_test.hpp"
+#include "experiments/tensile_strip.hpp"
 
 namespace twill {
 namespace {

@@ -1,14 +1,18 @@
-// `twill simulate`: one simulated tensile curve or cantilever from a params.yaml.
+// `twill simulate`: one registered experiment (experiments/experiment.hpp) from a params.yaml.
 //
 //   twill simulate --params P.yaml --test tensile --angle-deg A [--width-mm 50] [--gauge-mm 75]
 //                  --extensions-mm 0.5,1,2 [--discretization NAME] [--resolution 16x24]
-//                  [--option key=value ...] [--out FILE.csv] [--json] [--mesh-out FILE.obj]
-//   twill simulate --params P.yaml --test bend --angle-deg A (--overhang-mm L | --find-overhang)
+//                  [--option key=value ...] [--experiment-option key=value ...]
+//                  [--out FILE.csv] [--json] [--mesh-out FILE.obj]
+//   twill simulate --params P.yaml --test bend --angle-deg A (--overhang-mm L[,L2...] | --find-overhang)
 //                  [--width-mm 25] [--resolution 4x64] [--json] [--mesh-out FILE.obj]
 //
-// Tensile output: CSV `extension_mm,force_N,lateral_strain` (stdout without --out). Bend output:
-// `chord_angle_deg=<v>` or, with --find-overhang, `overhang_mm=<v>` for a 41.5° chord.
+// --test is any registered experiment (`twill list experiment`); its schedule is given by
+// --extensions-mm (tensile, validation) or --overhang-mm (bend). Output: CSV with the schedule,
+// the observable and the experiment's extra columns (stdout without --out), or one JSON
+// object with --json. --find-overhang (bend only): `overhang_mm=<v>` for a 41.5° chord.
 #include <cstdio>
+#include <functional>
 #include <fstream>
 #include <iostream>
 #include <nlohmann/json.hpp>
@@ -21,8 +25,8 @@
 #include "core/obj_writer.hpp"
 #include "core/params_io.hpp"
 #include "core/yaml_reader.hpp"
-#include "experiments/cantilever_test.hpp"
-#include "experiments/tensile_test.hpp"
+#include "experiments/experiment.hpp"
+#include "experiments/predictors.hpp"
 
 namespace twill {
 namespace {
@@ -30,14 +34,17 @@ namespace {
 struct SimulateArgs {
   std::string params, test, discretization = "catmull-clark-kl", resolution, out, mesh_out;
   double angle_deg = 90;
-  std::optional<double> width_mm, gauge_mm, overhang_mm;
+  std::optional<double> width_mm, gauge_mm;
   std::string extensions;
-  std::vector<std::string> options;
-  bool find_overhang = false, json = false, planar = true;
+  std::optional<std::string> overhangs;
+  std::vector<std::string> options, experiment_options;
+  bool find_overhang = false, json = false, out_of_plane = false;
 };
 
-// Comma-separated extensions [mm], each finite and a plausible strain of the gauge.
-std::vector<double> parse_list(const std::string& text, double gauge_length_mm) {
+// Comma-separated numbers given as `option`, each checked by `check` (which returns a
+// violation, empty when fine).
+std::vector<double> parse_list(const std::string& text, const std::string& option,
+                               const std::function<std::string(double)>& check) {
   std::vector<double> values;
   std::stringstream in(text);
   std::string item;
@@ -47,141 +54,157 @@ std::vector<double> parse_list(const std::string& text, double gauge_length_mm) 
       values.push_back(std::stod(item, &used));
       if (used != item.size()) throw std::invalid_argument(item);
     } catch (const std::exception&) {
-      throw InputError({"command line", 0, "--extensions-mm"}, "not a number: '" + excerpt(item) + "'");
+      throw InputError({"command line", 0, option}, "not a number: '" + excerpt(item) + "'");
     }
-    const std::string violation = range_violation(values.back() / gauge_length_mm, limits::kEngineeringStrain);
-    if (!violation.empty())
-      throw InputError({"command line", 0, "--extensions-mm"},
-                       "extension '" + excerpt(item) + "' mm on a " + format_double(gauge_length_mm) +
-                           " mm gauge: " + violation);
+    const std::string violation = check(values.back());
+    if (!violation.empty()) throw InputError({"command line", 0, option}, "'" + excerpt(item) + "': " + violation);
   }
-  if (values.empty()) throw InputError({"command line", 0, "--extensions-mm"}, "no extensions given");
+  if (values.empty()) throw InputError({"command line", 0, option}, "no values given");
   return values;
+}
+
+// The options of a registered entry at their defaults with `key=value` overrides applied
+// (checked like a config file; errors name `flag`).
+Options entry_options(const Registry& registry, const RegistryEntry& entry, const std::vector<std::string>& overrides) {
+  OptionSchema wrapper;
+  wrapper.add_section("o", "options") = entry.options;
+  Options options = default_options(wrapper, &registry);
+  for (const std::string& o : overrides) apply_override(options, wrapper, &registry, "o." + o);
+  return options.get_section("o");
 }
 
 DiscretizationFactory make_factory(Registry& registry, const SimulateArgs& args) {
   const auto& category = registry.category<DiscretizationFactories>(registry_category::kDiscretization);
-  const RegistryEntry& entry = category.at(args.discretization);
-  OptionSchema wrapper;
-  wrapper.add_section("d", "discretization options") = entry.options;
-  Options options = default_options(wrapper, &registry);
-  for (const std::string& o : args.options) apply_override(options, wrapper, &registry, "d." + o);
-  const Options chosen = options.get_section("d");
+  const Options chosen = entry_options(registry, category.at(args.discretization), args.options);
   const std::string name = args.discretization;
   return [&category, name, chosen](const StripSpec& s, const MaterialParameters& p) {
     return category.create(name, chosen, s, p);
   };
 }
 
-void write_mesh(const std::string& path, const Discretization& d, const Eigen::VectorXd& q) {
-  Eigen::MatrixXd V;
-  Eigen::MatrixXi F;
-  d.surface_mesh(q, &V, &F);
-  write_obj(path, V, F);
+void write_text(const std::string& path, const std::string& text) {
+  if (path.empty()) {
+    std::cout << text;
+    return;
+  }
+  std::ofstream file(path);
+  if (!(file << text)) throw InputError({path, 0, ""}, "cannot write the output file");
 }
 
-void run_tensile(Registry& registry, const SimulateArgs& args, const MaterialParameters& p) {
-  if (args.extensions.empty())
-    throw InputError({"command line", 0, "--extensions-mm"}, "a tensile simulation needs --extensions-mm");
-  TensileSetup setup;
-  setup.angle_deg = args.angle_deg;
-  setup.width_mm = checked_argument(args.width_mm.value_or(50.0), limits::kStripWidth, "--width-mm");
-  setup.gauge_length_mm = checked_argument(args.gauge_mm.value_or(75.0), limits::kStripLength, "--gauge-mm");
-  setup.planar = args.planar;
-  const auto [across, along] = parse_resolution(args.resolution.empty() ? "16x24" : args.resolution, "--resolution");
-  const std::vector<double> extensions = parse_list(args.extensions, setup.gauge_length_mm);
-  setup.cells_across = across;
-  setup.cells_along = along;
-  std::string error;
-  if (!setup.validate(&error)) throw InputError({"command line", 0, ""}, error);
-  TensileExperiment experiment(setup, make_factory(registry, args), p);
-  Eigen::VectorXd last_q;
-  const TensileCurve curve = experiment.run(extensions,
-                                            [&](int, const Eigen::VectorXd& q, const EquilibriumSolver&) { last_q = q; });
-  if (!args.mesh_out.empty() && last_q.size() > 0) write_mesh(args.mesh_out, experiment.discretization(), last_q);
-
-  std::ostringstream text;
-  if (args.json) {
-    nlohmann::json j;
-    j["test"] = "tensile";
-    j["angle_deg"] = setup.angle_deg;
-    j["width_mm"] = setup.width_mm;
-    j["gauge_length_mm"] = setup.gauge_length_mm;
-    j["discretization"] = args.discretization;
-    j["resolution"] = std::to_string(across) + "x" + std::to_string(along);
-    j["completed"] = curve.completed;
-    j["message"] = curve.message;
-    j["wall_time_s"] = curve.wall_time_s;
-    j["newton_iterations"] = curve.newton_iterations;
-    for (const TensilePoint& pt : curve.points)
-      j["points"].push_back({{"extension_mm", pt.extension_mm}, {"force_N", pt.force_N}, {"lateral_strain", pt.lateral_strain}});
-    text << j.dump(2) << "\n";
-  } else {
-    text << "extension_mm,force_N,lateral_strain\n";
-    char line[128];
-    for (const TensilePoint& pt : curve.points) {
-      std::snprintf(line, sizeof line, "%.6g,%.9g,%.9g\n", pt.extension_mm, pt.force_N, pt.lateral_strain);
-      text << line;
-    }
-  }
-  if (args.out.empty()) {
-    std::cout << text.str();
-  } else {
-    std::ofstream file(args.out);
-    if (!(file << text.str())) throw InputError({args.out, 0, ""}, "cannot write the output file");
-  }
-  if (!curve.completed) throw std::runtime_error("the tensile curve stopped early: " + curve.message);
-}
-
-void run_bend(Registry& registry, const SimulateArgs& args, const MaterialParameters& p) {
-  if (args.find_overhang == args.overhang_mm.has_value())
-    throw InputError({"command line", 0, "--overhang-mm"}, "a bend simulation needs exactly one of --overhang-mm and --find-overhang");
-  CantileverSetup setup;
-  setup.angle_deg = args.angle_deg;
-  setup.width_mm = checked_argument(args.width_mm.value_or(25.0), limits::kStripWidth, "--width-mm");
-  if (args.overhang_mm) checked_argument(*args.overhang_mm, limits::kStripLength, "--overhang-mm");
+// The experiment's input from the command line: geometry, schedule, resolution. Geometry the
+// command line leaves out comes from the experiment's options (0 here).
+ExperimentInput simulate_input(Registry& registry, const SimulateArgs& args, const Options& experiment_options,
+                               const MaterialParameters& p) {
+  ExperimentInput input;
+  input.label = args.test + " (" + format_double(args.angle_deg) + "°)";
+  input.angle_deg = args.angle_deg;
+  if (args.width_mm) input.width_mm = checked_argument(*args.width_mm, limits::kStripWidth, "--width-mm");
+  if (args.gauge_mm) input.length_mm = checked_argument(*args.gauge_mm, limits::kStripLength, "--gauge-mm");
   if (!args.resolution.empty()) {
     const auto [across, along] = parse_resolution(args.resolution, "--resolution");
-    setup.cells_across = across;
-    setup.cells_along = along;
+    input.cells_across = across;
+    input.cells_along = along;
   }
-  std::string error;
-  if (!setup.validate(&error)) throw InputError({"command line", 0, ""}, error);
-  CantileverExperiment experiment(setup, make_factory(registry, args), p);
+  if (args.overhangs) {
+    input.schedule = parse_list(*args.overhangs, "--overhang-mm",
+                                [](double v) { return range_violation(v, limits::kStripLength); });
+  } else if (!args.extensions.empty()) {
+    const double gauge_mm = input.length_mm > 0 ? input.length_mm
+                            : experiment_options.has("gauge_length_mm") ? experiment_options.get_double("gauge_length_mm")
+                                                                        : 0.0;
+    if (!(gauge_mm > 0))
+      throw InputError({"command line", 0, "--extensions-mm"}, "experiment '" + args.test + "' is not scheduled by extensions (it has no gauge length)");
+    input.schedule = parse_list(args.extensions, "--extensions-mm", [gauge_mm](double v) {
+      const std::string violation = range_violation(v / gauge_mm, limits::kEngineeringStrain);
+      return violation.empty() ? violation : "extension on a " + format_double(gauge_mm) + " mm gauge: " + violation;
+    });
+  }
+  input.discretization = make_factory(registry, args);
+  input.start = p;
+  return input;
+}
+
+// The schedule flag each experiment reads, by its scheduled quantity.
+const char* schedule_flag(const std::string& quantity) {
+  return quantity == "overhang_mm" ? "--overhang-mm" : "--extensions-mm";
+}
+
+std::string run_as_csv(const Experiment& experiment, const ExperimentRun& run) {
+  std::ostringstream text;
+  text << experiment.schedule_quantity() << "," << experiment.observable();
+  for (const auto& [name, values] : run.extras) text << "," << name;
+  text << "\n";
+  char cell[64];
+  for (size_t i = 0; i < run.schedule.size(); ++i) {
+    std::snprintf(cell, sizeof cell, "%.6g,%.9g", run.schedule[i], run.values[static_cast<Eigen::Index>(i)]);
+    text << cell;
+    for (const auto& [name, values] : run.extras) {
+      std::snprintf(cell, sizeof cell, ",%.9g", values[i]);
+      text << cell;
+    }
+    text << "\n";
+  }
+  return text.str();
+}
+
+nlohmann::json run_as_json(const Experiment& experiment, const ExperimentRun& run, const SimulateArgs& args) {
   nlohmann::json j;
-  j["test"] = "bend";
-  j["angle_deg"] = setup.angle_deg;
-  j["width_mm"] = setup.width_mm;
+  j["test"] = args.test;
+  j["angle_deg"] = args.angle_deg;
   j["discretization"] = args.discretization;
-  j["resolution"] = std::to_string(setup.cells_across) + "x" + std::to_string(setup.cells_along);
-  bool ok = false;
-  std::string message;
-  if (args.find_overhang) {
-    const OverhangSearchResult r = experiment.find_overhang();
-    ok = r.converged;
-    message = r.message;
-    j["overhang_mm"] = r.overhang_mm;
-    j["chord_angle_deg"] = r.chord_angle_deg;
-    j["solves"] = r.evaluations;
-    j["wall_time_s"] = r.wall_time_s;
-    if (!args.json) std::printf("overhang_mm=%.6g\n", r.overhang_mm);
-  } else {
-    const CantileverResult r = experiment.solve(*args.overhang_mm);
-    ok = r.converged;
-    message = r.message;
-    j["overhang_mm"] = r.overhang_mm;
-    j["chord_angle_deg"] = r.chord_angle_deg;
-    j["tip_deflection_mm"] = r.tip_deflection_mm;
-    j["newton_iterations"] = r.newton_iterations;
-    j["wall_time_s"] = r.wall_time_s;
-    if (!args.json) std::printf("chord_angle_deg=%.6g\n", r.chord_angle_deg);
+  j["completed"] = run.completed;
+  j["message"] = run.message;
+  j["wall_time_s"] = run.wall_time_s;
+  j["newton_iterations"] = run.newton_iterations;
+  j["points"] = nlohmann::json::array();
+  for (size_t i = 0; i < run.schedule.size(); ++i) {
+    nlohmann::json point{{experiment.schedule_quantity(), run.schedule[i]},
+                         {experiment.observable(), run.values[static_cast<Eigen::Index>(i)]}};
+    for (const auto& [name, values] : run.extras) point[name] = values[i];
+    j["points"].push_back(point);
   }
-  j["converged"] = ok;
-  j["message"] = message;
-  if (args.json) std::cout << j.dump(2) << "\n";
-  if (!args.mesh_out.empty() && experiment.last_discretization())
-    write_mesh(args.mesh_out, *experiment.last_discretization(), experiment.last_positions());
-  if (!ok) throw std::runtime_error("the cantilever did not converge: " + message);
+  return j;
+}
+
+void write_mesh(const std::string& path, const Experiment& experiment) {
+  Eigen::MatrixXd V;
+  Eigen::MatrixXi F;
+  if (experiment.last_surface(&V, &F)) write_obj(path, V, F);
+}
+
+// --find-overhang: the bend experiment's overhang search (not a schedule).
+void find_overhang(Experiment& experiment, const SimulateArgs& args) {
+  auto* bend = dynamic_cast<CantileverPredictor*>(&experiment);
+  if (!bend) throw InputError({"command line", 0, "--find-overhang"}, "applies to the bend experiment only");
+  const OverhangSearchResult r = bend->experiment().find_overhang();
+  if (args.json) {
+    nlohmann::json j{{"test", args.test}, {"angle_deg", args.angle_deg}, {"discretization", args.discretization},
+                     {"overhang_mm", r.overhang_mm}, {"chord_angle_deg", r.chord_angle_deg}, {"solves", r.evaluations},
+                     {"wall_time_s", r.wall_time_s}, {"converged", r.converged}, {"message", r.message}};
+    std::cout << j.dump(2) << "\n";
+  } else {
+    std::printf("overhang_mm=%.6g\n", r.overhang_mm);
+  }
+  if (!args.mesh_out.empty()) write_mesh(args.mesh_out, experiment);
+  if (!r.converged) throw std::runtime_error("the overhang search did not converge: " + r.message);
+}
+
+void run_simulation(Registry& registry, const SimulateArgs& args, const MaterialParameters& p) {
+  const auto& category = registry.category<ExperimentFactories>(registry_category::kExperiment);
+  if (!category.find(args.test))
+    throw InputError({"command line", 0, "--test"},
+                     "unknown experiment '" + excerpt(args.test) + "' (known: " + category.known_names() + ")");
+  const Options options = entry_options(registry, category.at(args.test), args.experiment_options);
+  const ExperimentInput input = simulate_input(registry, args, options, p);
+  std::unique_ptr<Experiment> experiment = category.create(args.test, options, input);
+  if (args.find_overhang) return find_overhang(*experiment, args);
+  if (input.schedule.empty())
+    throw InputError({"command line", 0, schedule_flag(experiment->schedule_quantity())},
+                     "experiment '" + args.test + "' needs " + schedule_flag(experiment->schedule_quantity()));
+  const ExperimentRun run = experiment->simulate(p);
+  if (!args.mesh_out.empty()) write_mesh(args.mesh_out, *experiment);
+  write_text(args.out, args.json ? run_as_json(*experiment, run, args).dump(2) + "\n" : run_as_csv(*experiment, run));
+  if (!run.completed) throw std::runtime_error("the " + args.test + " simulation stopped early: " + run.message);
 }
 
 }  // namespace
@@ -190,27 +213,27 @@ void add_simulate_command(CLI::App& app, Context& context) {
   auto args = std::make_shared<SimulateArgs>();
   CLI::App* cmd = app.add_subcommand("simulate", "simulate one tensile curve or cantilever from a params.yaml");
   cmd->add_option("--params", args->params, "parameter file (params.yaml)")->required()->check(CLI::ExistingFile);
-  cmd->add_option("--test", args->test, "tensile or bend")->required()->check(CLI::IsMember({"tensile", "bend"}));
+  cmd->add_option("--test", args->test, "registered experiment (twill list experiment)")->required();
   cmd->add_option("--angle-deg", args->angle_deg, "strip axis vs weft: 0 weft, 90 warp, 45 bias")->required();
   cmd->add_option("--width-mm", args->width_mm, "strip width (tensile 50, bend 25)");
   cmd->add_option("--gauge-mm", args->gauge_mm, "tensile gauge length (75)");
   cmd->add_option("--extensions-mm", args->extensions, "tensile: comma-separated clamp extensions, applied in order");
-  cmd->add_option("--overhang-mm", args->overhang_mm, "bend: overhang length");
+  cmd->add_option("--overhang-mm", args->overhangs, "bend: comma-separated overhang lengths");
   cmd->add_flag("--find-overhang", args->find_overhang, "bend: find the overhang with a 41.5 deg chord angle");
   cmd->add_option("--discretization", args->discretization, "registered discretization (twill list)");
   cmd->add_option("--resolution", args->resolution, "cells across x along (tensile 16x24, bend 4x64)");
   cmd->add_option("--option", args->options, "discretization option key=value (repeatable; twill list)");
+  cmd->add_option("--experiment-option", args->experiment_options,
+                  "experiment option key=value (repeatable; twill list experiment)");
   cmd->add_option("--out", args->out, "tensile: write the CSV (or JSON) here instead of stdout");
   cmd->add_option("--mesh-out", args->mesh_out, "write the final equilibrium surface as OBJ");
   cmd->add_flag("--json", args->json, "print one JSON object");
-  cmd->add_flag("!--out-of-plane", args->planar, "tensile: solve in 3-D instead of holding the strip in its plane");
+  cmd->add_flag("--out-of-plane", args->out_of_plane, "tensile: solve in 3-D (experiment option planar=false)");
   cmd->callback([args, &context] {
     checked_argument(args->angle_deg, limits::kAngle, "--angle-deg");
     const MaterialParameters p = read_params_file(args->params);
-    if (args->test == "tensile")
-      run_tensile(context.registry, *args, p);
-    else
-      run_bend(context.registry, *args, p);
+    if (args->out_of_plane) args->experiment_options.push_back("planar=false");
+    run_simulation(context.registry, *args, p);
   });
 }
 

@@ -37,7 +37,7 @@ class EquilibriumSensitivity {
   EquilibriumSensitivity(const EquilibriumSolver& solver, const Eigen::VectorXd& q,
                          const std::vector<int>& parameters);
   /// The same for any m quantities p the gradient depends on, given ∂g/∂p (#dofs × m) by the
-  /// caller (e.g. the material angle, experiments/tensile_test.hpp); parameters() is empty.
+  /// caller (e.g. the material angle, experiments/tensile_strip.hpp); parameters() is empty.
   EquilibriumSensitivity(const EquilibriumSolver& solver, const Eigen::MatrixXd& dg_dp);
 
   int num_parameters() const { return static_cast<int>(dq_dk_.cols()); }

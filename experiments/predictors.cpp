@@ -2,7 +2,30 @@
 
 #include <stdexcept>
 
+#include "core/discretization.hpp"
+
 namespace twill {
+
+// Default of Experiment: no set-up sensitivities.
+bool Experiment::predict_setup_derivatives(const MaterialParameters&, const std::vector<std::string>& quantities,
+                                           Eigen::VectorXd*, Eigen::MatrixXd*, std::string*) {
+  throw std::invalid_argument(label() + ": no derivative in the set-up quantity '" +
+                              (quantities.empty() ? std::string() : quantities.front()) + "'");
+}
+
+namespace {
+
+// The measured values must match the schedule, which is not empty; or be absent (simulation
+// only: an empty schedule is then allowed, e.g. for the bend experiment's overhang search).
+void check_measured(const std::string& label, size_t schedule, const Eigen::VectorXd& measured,
+                    const char* what) {
+  if (measured.size() != 0 && static_cast<Eigen::Index>(schedule) != measured.size())
+    throw std::invalid_argument(label + ": " + std::to_string(schedule) + " " + what + " but " +
+                                std::to_string(measured.size()) + " measured values");
+  if (schedule == 0 && measured.size() != 0) throw std::invalid_argument(label + ": no " + std::string(what));
+}
+
+}  // namespace
 
 TensilePredictor::TensilePredictor(std::string label, const TensileSetup& setup,
                                    const DiscretizationFactory& factory,
@@ -14,10 +37,7 @@ TensilePredictor::TensilePredictor(std::string label, const TensileSetup& setup,
       experiment_(setup, factory, start, solver),
       extensions_mm_(std::move(extensions_mm)),
       measured_(forces_N) {
-  if (static_cast<Eigen::Index>(extensions_mm_.size()) != measured_.size())
-    throw std::invalid_argument(label_ + ": " + std::to_string(extensions_mm_.size()) +
-                                " extensions but " + std::to_string(measured_.size()) + " forces");
-  if (extensions_mm_.empty()) throw std::invalid_argument(label_ + ": no measured points");
+  check_measured(label_, extensions_mm_.size(), measured_, "extensions");
 }
 
 bool TensilePredictor::predict(const MaterialParameters& k, const std::vector<int>& flat,
@@ -58,8 +78,9 @@ bool TensilePredictor::predict(const MaterialParameters& k, const std::vector<in
     if (message) *message = curve.message;
     return false;
   }
-  values->resize(measured_.size());
-  if (jacobian) jacobian->resize(measured_.size(), static_cast<Eigen::Index>(flat.size()));
+  const auto m = static_cast<Eigen::Index>(extensions_mm_.size());
+  values->resize(m);
+  if (jacobian) jacobian->resize(m, static_cast<Eigen::Index>(flat.size()));
   for (size_t i = 0; i < curve.points.size(); ++i) {
     (*values)[static_cast<Eigen::Index>(i)] = curve.points[i].force_N;
     if (jacobian) jacobian->row(static_cast<Eigen::Index>(i)) = curve.points[i].dforce_dk.transpose();
@@ -78,16 +99,81 @@ bool TensilePredictor::predict(const MaterialParameters& k, const std::vector<in
   return true;
 }
 
+ExperimentRun TensilePredictor::simulate(const MaterialParameters& k) {
+  experiment_.set_parameters(k);
+  experiment_.set_sensitivity_parameters({});
+  experiment_.set_keep_states(false);
+  experiment_.set_angle_sensitivity(report_angle_derivative_);
+  const TensileCurve curve = experiment_.run(
+      extensions_mm_, [this](int, const Eigen::VectorXd& q, const EquilibriumSolver&) { last_q_ = q; });
+  experiment_.set_angle_sensitivity(false);
+  for (const TensilePoint& p : curve.points) solves_ += 1 + p.solve.fallbacks;
+  ExperimentRun run;
+  run.completed = curve.completed;
+  run.message = curve.message;
+  run.newton_iterations = curve.newton_iterations;
+  run.wall_time_s = curve.wall_time_s;
+  run.values.resize(static_cast<Eigen::Index>(curve.points.size()));
+  std::vector<double> lateral, dforce_dangle;
+  for (size_t i = 0; i < curve.points.size(); ++i) {
+    run.schedule.push_back(curve.points[i].extension_mm);
+    run.values[static_cast<Eigen::Index>(i)] = curve.points[i].force_N;
+    lateral.push_back(curve.points[i].lateral_strain);
+    dforce_dangle.push_back(curve.points[i].dforce_dangle);
+  }
+  run.extras.emplace_back("lateral_strain", std::move(lateral));
+  if (report_angle_derivative_) run.extras.emplace_back("dforce_dangle_N_per_deg", std::move(dforce_dangle));
+  return run;
+}
+
+bool TensilePredictor::predict_setup_derivatives(const MaterialParameters& k, const std::vector<std::string>& quantities,
+                                                 Eigen::VectorXd* values, Eigen::MatrixXd* jacobian,
+                                                 std::string* message) {
+  for (const std::string& q : quantities)
+    if (q != setup_quantity::kAngle) return Experiment::predict_setup_derivatives(k, {q}, values, jacobian, message);
+  const bool was = report_angle_derivative_;
+  report_angle_derivative_ = true;
+  const ExperimentRun run = simulate(k);
+  report_angle_derivative_ = was;
+  if (!run.completed) {
+    if (message) *message = run.message;
+    return false;
+  }
+  *values = run.values;
+  const std::vector<double>& d = run.extras.back().second;  // dforce_dangle_N_per_deg
+  jacobian->resize(run.values.size(), static_cast<Eigen::Index>(quantities.size()));
+  for (Eigen::Index c = 0; c < jacobian->cols(); ++c)
+    jacobian->col(c) = Eigen::Map<const Eigen::VectorXd>(d.data(), static_cast<Eigen::Index>(d.size()));
+  return true;
+}
+
+bool TensilePredictor::last_surface(Eigen::MatrixXd* V, Eigen::MatrixXi* F) const {
+  if (last_q_.size() == 0) return false;
+  experiment_.discretization().surface_mesh(last_q_, V, F);
+  return true;
+}
+
 CantileverPredictor::CantileverPredictor(std::string label, const CantileverSetup& setup,
                                          const DiscretizationFactory& factory,
                                          const MaterialParameters& start, double overhang_mm,
                                          double measured_angle_deg,
                                          const EquilibriumOptions& solver)
+    : CantileverPredictor(std::move(label), setup, factory, start, std::vector<double>{overhang_mm},
+                          Eigen::VectorXd::Constant(1, measured_angle_deg), solver) {}
+
+CantileverPredictor::CantileverPredictor(std::string label, const CantileverSetup& setup,
+                                         const DiscretizationFactory& factory,
+                                         const MaterialParameters& start,
+                                         std::vector<double> overhangs_mm,
+                                         const Eigen::VectorXd& measured_angles_deg,
+                                         const EquilibriumOptions& solver)
     : label_(std::move(label)),
       experiment_(setup, factory, start, solver),
-      overhang_mm_(overhang_mm),
-      measured_(Eigen::VectorXd::Constant(1, measured_angle_deg)) {
-  if (!(overhang_mm > 0)) throw std::invalid_argument(label_ + ": overhang must be > 0 mm");
+      overhangs_mm_(std::move(overhangs_mm)),
+      measured_(measured_angles_deg) {
+  check_measured(label_, overhangs_mm_.size(), measured_, "overhangs");
+  for (double overhang : overhangs_mm_)
+    if (!(overhang > 0)) throw std::invalid_argument(label_ + ": overhang must be > 0 mm");
 }
 
 bool CantileverPredictor::predict(const MaterialParameters& k, const std::vector<int>& flat,
@@ -95,15 +181,51 @@ bool CantileverPredictor::predict(const MaterialParameters& k, const std::vector
                                   std::string* message) {
   experiment_.set_parameters(k);
   experiment_.set_sensitivity_parameters(jacobian ? flat : std::vector<int>{});
-  const CantileverResult r = experiment_.solve(overhang_mm_);
-  ++solves_;
-  if (!r.converged) {
-    if (message) *message = r.message;
-    experiment_.reset_warm_start();
-    return false;
+  const auto m = static_cast<Eigen::Index>(overhangs_mm_.size());
+  values->resize(m);
+  if (jacobian) jacobian->resize(m, static_cast<Eigen::Index>(flat.size()));
+  for (Eigen::Index i = 0; i < m; ++i) {
+    const CantileverResult r = experiment_.solve(overhangs_mm_[static_cast<size_t>(i)]);
+    ++solves_;
+    if (!r.converged) {
+      if (message) *message = r.message;
+      experiment_.reset_warm_start();
+      return false;
+    }
+    (*values)[i] = r.chord_angle_deg;
+    if (jacobian) jacobian->row(i) = r.dchord_angle_dk.transpose();
   }
-  *values = Eigen::VectorXd::Constant(1, r.chord_angle_deg);
-  if (jacobian) *jacobian = r.dchord_angle_dk.transpose();
+  return true;
+}
+
+ExperimentRun CantileverPredictor::simulate(const MaterialParameters& k) {
+  experiment_.set_parameters(k);
+  experiment_.set_sensitivity_parameters({});
+  ExperimentRun run;
+  std::vector<double> values, tip;
+  for (double overhang : overhangs_mm_) {
+    const CantileverResult r = experiment_.solve(overhang);
+    ++solves_;
+    run.newton_iterations += r.newton_iterations;
+    run.wall_time_s += r.wall_time_s;
+    if (!r.converged) {
+      run.message = r.message;
+      experiment_.reset_warm_start();
+      break;
+    }
+    run.schedule.push_back(overhang);
+    values.push_back(r.chord_angle_deg);
+    tip.push_back(r.tip_deflection_mm);
+  }
+  run.completed = run.schedule.size() == overhangs_mm_.size();
+  run.values = Eigen::Map<const Eigen::VectorXd>(values.data(), static_cast<Eigen::Index>(values.size()));
+  run.extras.emplace_back("tip_deflection_mm", std::move(tip));
+  return run;
+}
+
+bool CantileverPredictor::last_surface(Eigen::MatrixXd* V, Eigen::MatrixXi* F) const {
+  if (!experiment_.last_discretization()) return false;
+  experiment_.last_discretization()->surface_mesh(experiment_.last_positions(), V, F);
   return true;
 }
 

@@ -7,27 +7,43 @@
 // each point's equilibrium q_i and ∂q_i/∂k are kept; a later evaluation at k starts point i
 // from q_i + ∂q_i/∂k (k − k_anchor) instead of continuing from the previous point, which
 // typically leaves one or two Newton iterations per point. A point whose solve fails from the
-// prediction is retried by continuation (tensile_test.hpp run_from).
+// prediction is retried by continuation (tensile_strip.hpp run_from).
 //
-// CantileverPredictor: the D1388 cantilever at a measured overhang; the prediction is the
-// chord angle [deg], measured 41.5° (paper §4, §5.2 step 7).
+// CantileverPredictor: the D1388 cantilever at measured overhangs; the prediction is the
+// chord angle [deg] at each, measured 41.5° (paper §4, §5.2 step 7).
+//
+// Both are the registered experiments "tensile", "validation" and "bend" (experiment.hpp,
+// register_experiments.cpp); the fit and `twill simulate` create them through the registry.
 #include <memory>
 #include <string>
 #include <vector>
 
-#include "core/fit_objective.hpp"
-#include "experiments/cantilever_test.hpp"
-#include "experiments/tensile_test.hpp"
+#include "experiments/cantilever.hpp"
+#include "experiments/experiment.hpp"
+#include "experiments/tensile_strip.hpp"
 
 namespace twill {
 
-class TensilePredictor : public Predictor {
+class TensilePredictor : public Experiment {
  public:
-  /// extensions_mm and forces_N: the measured points (same size, forces ≠ 0).
+  /// extensions_mm and forces_N: the measured points (same size, forces ≠ 0), or no forces
+  /// (an empty vector: simulation only).
   TensilePredictor(std::string label, const TensileSetup& setup,
                    const DiscretizationFactory& factory, const MaterialParameters& start,
                    std::vector<double> extensions_mm, const Eigen::VectorXd& forces_N,
                    const EquilibriumOptions& solver = {});
+
+  std::string observable() const override { return "force_N"; }
+  std::string schedule_quantity() const override { return "extension_mm"; }
+  const std::vector<double>& schedule() const override { return extensions_mm_; }
+  /// Extras: lateral_strain per point, and dforce_dangle_N_per_deg with report_angle_derivative.
+  ExperimentRun simulate(const MaterialParameters& k) override;
+  std::vector<std::string> setup_sensitivities() const override { return {setup_quantity::kAngle}; }
+  bool predict_setup_derivatives(const MaterialParameters& k, const std::vector<std::string>& quantities,
+                                 Eigen::VectorXd* values, Eigen::MatrixXd* jacobian, std::string* message) override;
+  bool last_surface(Eigen::MatrixXd* V, Eigen::MatrixXi* F) const override;
+  /// simulate() also reports dF/dθ per point (the validation experiment, paper §7).
+  void set_report_angle_derivative(bool on) { report_angle_derivative_ = on; }
 
   std::string label() const override { return label_; }
   const Eigen::VectorXd& measured() const override { return measured_; }
@@ -48,8 +64,10 @@ class TensilePredictor : public Predictor {
   std::vector<double> extensions_mm_;
   Eigen::VectorXd measured_;
   bool warm_start_ = true;
+  bool report_angle_derivative_ = false;
   long solves_ = 0;
   TensileCurve last_curve_;
+  Eigen::VectorXd last_q_;  ///< the last simulate()'s final equilibrium (last_surface)
   // Anchor of the warm start: flat k, the indices of dq/dk's columns, states per point.
   Eigen::VectorXd anchor_k_;
   std::vector<int> anchor_flat_;
@@ -57,25 +75,37 @@ class TensilePredictor : public Predictor {
   std::vector<Eigen::MatrixXd> anchor_dq_;
 };
 
-class CantileverPredictor : public Predictor {
+class CantileverPredictor : public Experiment {
  public:
+  /// One overhang [mm] (> 0) with its measured chord angle.
   CantileverPredictor(std::string label, const CantileverSetup& setup,
                       const DiscretizationFactory& factory, const MaterialParameters& start,
                       double overhang_mm, double measured_angle_deg = kD1388ChordAngle_deg,
                       const EquilibriumOptions& solver = {});
+  /// Several overhangs with their measured chord angles (same size), or none (simulation).
+  CantileverPredictor(std::string label, const CantileverSetup& setup,
+                      const DiscretizationFactory& factory, const MaterialParameters& start,
+                      std::vector<double> overhangs_mm, const Eigen::VectorXd& measured_angles_deg,
+                      const EquilibriumOptions& solver = {});
+
+  std::string observable() const override { return "chord_angle_deg"; }
+  std::string schedule_quantity() const override { return "overhang_mm"; }
+  const std::vector<double>& schedule() const override { return overhangs_mm_; }
+  /// Extras: tip_deflection_mm per overhang.
+  ExperimentRun simulate(const MaterialParameters& k) override;
+  bool last_surface(Eigen::MatrixXd* V, Eigen::MatrixXi* F) const override;
 
   std::string label() const override { return label_; }
   const Eigen::VectorXd& measured() const override { return measured_; }
   bool predict(const MaterialParameters& k, const std::vector<int>& flat, Eigen::VectorXd* values,
                Eigen::MatrixXd* jacobian, std::string* message) override;
   long equilibrium_solves() const override { return solves_; }
-  double overhang_mm() const { return overhang_mm_; }
   CantileverExperiment& experiment() { return experiment_; }
 
  private:
   std::string label_;
   CantileverExperiment experiment_;
-  double overhang_mm_;
+  std::vector<double> overhangs_mm_;
   Eigen::VectorXd measured_;
   long solves_ = 0;
 };

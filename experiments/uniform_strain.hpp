@@ -24,7 +24,7 @@
 
 #include "core/fit_objective.hpp"
 #include "core/material_law.hpp"
-#include "experiments/tensile_test.hpp"
+#include "experiments/tensile_strip.hpp"
 
 namespace twill {
 

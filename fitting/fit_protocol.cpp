@@ -19,6 +19,7 @@
 #include "core/fit_objective.hpp"
 #include "core/input_error.hpp"
 #include "core/repeat_selection.hpp"
+#include "experiments/experiment.hpp"
 #include "experiments/predictors.hpp"
 #include "experiments/uniform_strain.hpp"
 #include "optimizers/optimizer.hpp"
@@ -34,6 +35,10 @@ OptionSchema fit_config_schema() {
   // BFGS and Ipopt hit the limits (papers/optimizer_comparison, papers/fit_examples).
   s.add_component("optimizer", registry_category::kOptimizer, "gauss-newton",
                   "minimiser of the fit objective (paper Eq. 3) in every stage");
+  OptionSchema& experiments = s.add_section("experiments", "the simulated tests the stages fit (twill list experiment)");
+  experiments.add_component("tensile", registry_category::kExperiment, "tensile",
+                            "experiment of every fitted tensile run (warp, weft, bias stages)");
+  experiments.add_component("bend", registry_category::kExperiment, "bend", "experiment of the bend stage");
   OptionSchema& stop = s.add_section("stopping", "per-stage limits, applied to the optimiser's common options");
   stop.add_int("max_iterations", 60, "iterations per stage at the coarsest level").at_least(1);
   stop.add_int("refine_max_iterations", 15,
@@ -356,6 +361,34 @@ class Protocol {
 
   std::string run_label(const RunData& d) const { return d.test->label + " " + d.run->name(); }
 
+  /// The input of an experiment on this fit's discretisation and solver (schedule and measured
+  /// values are the caller's).
+  ExperimentInput experiment_input(std::string label, double angle_deg, double width_mm, int cells_across,
+                                   int cells_along, const MaterialParameters& p) const {
+    ExperimentInput input;
+    input.label = std::move(label);
+    input.angle_deg = angle_deg;
+    input.width_mm = width_mm;
+    input.cells_across = cells_across;
+    input.cells_along = cells_along;
+    input.discretization = factory_;
+    input.start = p;
+    input.solver = solver_;
+    return input;
+  }
+
+  /// A fit run's experiment at `level` from parameters `p`, created through the registry (the
+  /// config's `experiments.tensile`), predicting the run's measured forces.
+  std::shared_ptr<Experiment> tensile_experiment(const RunData& d, int level, const MaterialParameters& p) const {
+    const TensileSetup s = setup_for(*d.test, level);
+    ExperimentInput input = experiment_input(run_label(d), s.angle_deg, s.width_mm, s.cells_across, s.cells_along, p);
+    input.length_mm = s.gauge_length_mm;
+    input.schedule = d.extension_mm;
+    input.measured = d.force_N;
+    return registry_.create<ExperimentFactories>(registry_category::kExperiment,
+                                                 config_.get_section("experiments").get_component("tensile"), input);
+  }
+
   // ---- §5.3 initial guess --------------------------------------------------------------------
   void initial_guess() {
     MaterialParameters& p = params_;
@@ -404,12 +437,11 @@ class Protocol {
     size_t k = 0;
     for (const Stage& stage : stages())
       for (const RunData* d : runs_for(stage.angle_deg)) {
-        TensilePredictor full(run_label(*d), setup_for(*d->test, 0), factory_, p, d->extension_mm,
-                              d->force_N, solver_);
+        const std::shared_ptr<Experiment> full = tensile_experiment(*d, 0, p);
         UniformStrainPredictor uniform(run_label(*d), setup_for(*d->test, 0), d->extension_mm, d->force_N);
         Eigen::VectorXd a, b;
         std::string message;
-        if (k < report_.initial_guess.size() && full.predict(p, {}, &a, nullptr, &message) &&
+        if (k < report_.initial_guess.size() && full->predict(p, {}, &a, nullptr, &message) &&
             uniform.predict(p, {}, &b, nullptr, &message)) {
           report_.initial_guess[k].avg_rel_difference_full = (b - a).cwiseAbs().sum() / a.cwiseAbs().sum();
           say(0, fmt::format("  {}: uniform strain vs full solve at the guess: {:.2f} %", run_label(*d),
@@ -479,13 +511,11 @@ class Protocol {
     std::vector<std::shared_ptr<Predictor>> predictors;
     std::string resolution;
     for (const RunData* d : runs) {
-      const TensileSetup setup = setup_for(*d->test, level);
-      resolution = resolution_text(setup);
-      predictors.push_back(std::make_shared<TensilePredictor>(run_label(*d), setup, factory_, *p,
-                                                              d->extension_mm, d->force_N, solver_));
+      resolution = resolution_text(setup_for(*d->test, level));
+      const std::shared_ptr<Experiment> experiment = tensile_experiment(*d, level, *p);
+      last_predictor_[d] = {level, experiment};
+      predictors.push_back(experiment);
     }
-    for (size_t i = 0; i < runs.size(); ++i)
-      last_predictor_[runs[i]] = {level, std::static_pointer_cast<TensilePredictor>(predictors[i])};
     ParameterMap map(*p, {stage.stiffness, stage.curve + ".*"});
     FitObjective objective(map, predictors);
     const int degree = ((*p).*(stage.curve_member)).degree();
@@ -560,8 +590,7 @@ class Protocol {
     tbb::parallel_for(size_t{0}, candidates.size(), [&](size_t i) {
       std::vector<std::shared_ptr<Predictor>> full;
       for (const RunData* d : runs)
-        full.push_back(std::make_shared<TensilePredictor>(run_label(*d), setup_for(*d->test, 0), factory_,
-                                                          candidates[i], d->extension_mm, d->force_N, solver_));
+        full.push_back(tensile_experiment(*d, 0, candidates[i]));
       ParameterMap map(candidates[i], {stage.curve + ".*"});
       FitObjective objective(map, full);
       const double value = objective.evaluate(map.initial_x(), nullptr);
@@ -808,16 +837,21 @@ class Protocol {
     return s;
   }
 
+  /// A bend test's experiment at the mean measured overhang, created through the registry (the
+  /// config's `experiments.bend`), predicting the measured chord angle.
+  std::shared_ptr<Experiment> bend_experiment(const BendTest& b) const {
+    const CantileverSetup s = bend_setup(b);
+    ExperimentInput input = experiment_input(b.label, s.angle_deg, s.width_mm, s.cells_across, s.cells_along, params_);
+    input.schedule = {mean(b.overhang_mm)};
+    input.measured = Eigen::VectorXd::Constant(1, b.chord_angle_deg);
+    return registry_.create<ExperimentFactories>(registry_category::kExperiment,
+                                                 config_.get_section("experiments").get_component("bend"), input);
+  }
+
   void fit_bend() {
     const auto t = Clock::now();
     std::vector<std::shared_ptr<Predictor>> predictors;
-    std::vector<std::shared_ptr<CantileverPredictor>> cantilevers;
-    for (const BendTest& b : dataset_.bend) {
-      auto c = std::make_shared<CantileverPredictor>(b.label, bend_setup(b), factory_, params_,
-                                                     mean(b.overhang_mm), b.chord_angle_deg, solver_);
-      predictors.push_back(c);
-      cantilevers.push_back(c);
-    }
+    for (const BendTest& b : dataset_.bend) predictors.push_back(bend_experiment(b));
     ParameterMap::Options options;
     options.rescale_with_thickness = true;
     ParameterMap map(params_, {"thickness_m"}, options);
@@ -892,7 +926,7 @@ class Protocol {
   };
   std::map<const TensileTest*, AngleAnchor> angle_anchors_;
   /// Each fit run's predictor of its stage's last fit, with that fit's level.
-  std::map<const RunData*, std::pair<int, std::shared_ptr<TensilePredictor>>> last_predictor_;
+  std::map<const RunData*, std::pair<int, std::shared_ptr<Experiment>>> last_predictor_;
 
   /// Curve of `experiment` over `extensions`: warm-started from the test's angle anchor when
   /// it covers every extension (all points in parallel, TensileExperiment::run_from), by
@@ -991,7 +1025,7 @@ class Protocol {
   /// others are simulated along their schedules, in parallel with those.
   void final_fit_curves() {
     std::vector<CurveRequest> requests, simulated_requests;
-    std::vector<std::shared_ptr<TensilePredictor>> warm(fit_runs_.size());
+    std::vector<std::shared_ptr<Experiment>> warm(fit_runs_.size());
     for (size_t r = 0; r < fit_runs_.size(); ++r) {
       const RunData& d = fit_runs_[r];
       requests.push_back({&d, d.test->angle_deg});

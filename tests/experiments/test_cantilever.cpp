@@ -4,7 +4,7 @@
 #include <cmath>
 
 #include "discretizations/catmull_clark_kl/catmull_clark_kl.hpp"
-#include "experiments/cantilever_test.hpp"
+#include "experiments/cantilever.hpp"
 
 namespace twill {
 namespace {

@@ -16,7 +16,7 @@
 #include "core/dataset.hpp"
 #include "core/params_io.hpp"
 #include "discretizations/catmull_clark_kl/catmull_clark_kl.hpp"
-#include "experiments/tensile_test.hpp"
+#include "experiments/tensile_strip.hpp"
 
 namespace twill {
 namespace {

@@ -18,7 +18,7 @@
 #include "discretizations/catmull_clark_kl/catmull_clark_kl.hpp"
 #include "discretizations/triangle_shell/strip_triangulation.hpp"
 #include "discretizations/triangle_shell/triangle_shell.hpp"
-#include "experiments/cantilever_test.hpp"
+#include "experiments/cantilever.hpp"
 #include "tests/discretizations/test_triangle_shell_support.hpp"
 
 namespace twill {
@@ -121,7 +121,7 @@ TEST(TriangleCantilever, OverhangWithinThreePercentOfCatmullClark) {
 
 TEST(TriangleCantilever, LinearMaterialMatchesPeirce) {
   // With a12 = 0 a strip and a plate have the same rigidity, and Peirce's L = 2 (B/w)^{1/3}
-  // is exact to 0.02 % for the inextensible elastica (cantilever_test.hpp): an independent
+  // is exact to 0.02 % for the inextensible elastica (cantilever.hpp): an independent
   // reference. Clamp hinges (the clamp at the platform edge, not one cell in), 4 × 64:
   // measured 85.82 mm against 85.81 mm (+0.01 %; the same to 0.03 % from 4×32 to 16×128,
   // where Catmull–Clark is +1.7 … +0.4 %). Tolerance 0.5 %: Peirce's 0.02 % plus the

@@ -15,7 +15,7 @@
 #include "core/params_io.hpp"
 #include "discretizations/catmull_clark_kl/catmull_clark_kl.hpp"
 #include "discretizations/triangle_shell/triangle_shell.hpp"
-#include "experiments/tensile_test.hpp"
+#include "experiments/tensile_strip.hpp"
 
 namespace twill {
 namespace {

@@ -18,7 +18,7 @@
 #include "core/dataset.hpp"
 #include "core/params_io.hpp"
 #include "discretizations/triangle_shell/triangle_shell.hpp"
-#include "experiments/tensile_test.hpp"
+#include "experiments/tensile_strip.hpp"
 
 namespace twill {
 namespace {

@@ -23,7 +23,7 @@
 #include "core/fit_objective.hpp"
 #include "core/params_io.hpp"
 #include "discretizations/catmull_clark_kl/catmull_clark_kl.hpp"
-#include "experiments/tensile_test.hpp"
+#include "experiments/tensile_strip.hpp"
 #include "experiments/uniform_strain.hpp"
 #include "optimizers/optimizer_factory.hpp"
 #include "tests/support/finite_difference.hpp"

@@ -14,6 +14,7 @@
 #include "core/yaml_reader.hpp"
 #include "discretizations/catmull_clark_kl/register_catmull_clark_kl.hpp"
 #include "discretizations/triangle_shell/register_triangle_shell.hpp"
+#include "experiments/register_experiments.hpp"
 #include "fitting/fit_protocol.hpp"
 #include "optimizers/optimizer_factory.hpp"
 
@@ -26,6 +27,7 @@ Registry& registry() {
     register_catmull_clark_kl(reg);
     register_triangle_shell(reg);
     register_optimizers(reg);
+    register_experiments(reg);
     return reg;
   }();
   return r;

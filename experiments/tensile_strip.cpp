@@ -1,4 +1,4 @@
-#include "experiments/tensile_test.hpp"
+#include "experiments/tensile_strip.hpp"
 
 #include <algorithm>
 #include <chrono>

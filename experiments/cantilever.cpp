@@ -1,4 +1,4 @@
-#include "experiments/cantilever_test.hpp"
+#include "experiments/cantilever.hpp"
 
 #include <chrono>
 #include <cmath>
