@@ -93,7 +93,7 @@ void add_bench_command(CLI::App& app, Context& context) {
     for (const std::string& res : args->resolutions) parse_resolution(res, "--resolution");  // before any work
     for (const std::string& label : args->labels) label_angle_deg(label);
     const std::filesystem::path folder(args->reference);
-    const MaterialParameters p = read_params_file((folder / "params.yaml").string());
+    const MaterialParameters p = read_params_file((folder / "params.yaml").string(), &context.registry);
     auto& category = context.registry.category<DiscretizationFactories>(registry_category::kDiscretization);
     std::map<std::string, int> used;
     std::map<std::string, Options> options;

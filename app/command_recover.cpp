@@ -33,7 +33,7 @@ void add_recover_command(CLI::App& app, Context& context) {
   cmd->callback([&context, args] {
     if (std::sscanf(args->resolution.c_str(), "%dx%d", &args->c.cells_across, &args->c.cells_along) != 2)
       throw InputError({"--resolution", 0, "resolution"}, "expected NxM, got '" + args->resolution + "'");
-    const RecoveryResult r = run_recovery(args->c, read_params_file(args->params), context.registry);
+    const RecoveryResult r = run_recovery(args->c, read_params_file(args->params, &context.registry), context.registry);
     if (args->json) {
       nlohmann::json j = {{"test", args->c.test}, {"degree", args->c.degree}, {"optimizer", args->c.optimizer},
                           {"resolution", args->resolution}, {"status", r.status}, {"message", r.message},

@@ -25,6 +25,7 @@
 #include "core/obj_writer.hpp"
 #include "core/params_io.hpp"
 #include "core/yaml_reader.hpp"
+#include "effects/effect.hpp"
 #include "experiments/experiment.hpp"
 #include "experiments/predictors.hpp"
 
@@ -189,6 +190,15 @@ void find_overhang(Experiment& experiment, const SimulateArgs& args) {
   if (!r.converged) throw std::runtime_error("the overhang search did not converge: " + r.message);
 }
 
+// The material with every effect's law hook applied (effects/effect.hpp). Per-run set-up
+// hooks need a run's values, which a single simulation does not have: the nominal set-up.
+MaterialParameters with_effects_on_the_law(const MaterialParameters& p, const Registry& registry) {
+  MaterialParameters adjusted = p;
+  for (const ComponentChoice& choice : p.effects)
+    adjusted = registry.create<EffectFactories>(registry_category::kEffect, choice)->adjusted_material(adjusted);
+  return adjusted;
+}
+
 void run_simulation(Registry& registry, const SimulateArgs& args, const MaterialParameters& p) {
   const auto& category = registry.category<ExperimentFactories>(registry_category::kExperiment);
   if (!category.find(args.test))
@@ -231,7 +241,8 @@ void add_simulate_command(CLI::App& app, Context& context) {
   cmd->add_flag("--out-of-plane", args->out_of_plane, "tensile: solve in 3-D (experiment option planar=false)");
   cmd->callback([args, &context] {
     checked_argument(args->angle_deg, limits::kAngle, "--angle-deg");
-    const MaterialParameters p = read_params_file(args->params);
+    const MaterialParameters p = with_effects_on_the_law(read_params_file(args->params, &context.registry),
+                                                         context.registry);
     if (args->out_of_plane) args->experiment_options.push_back("planar=false");
     run_simulation(context.registry, *args, p);
   });

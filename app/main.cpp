@@ -11,6 +11,7 @@
 #include "core/input_error.hpp"
 #include "discretizations/catmull_clark_kl/register_catmull_clark_kl.hpp"
 #include "discretizations/triangle_shell/register_triangle_shell.hpp"
+#include "effects/register_effects.hpp"
 #include "experiments/register_experiments.hpp"
 #include "optimizers/optimizer_factory.hpp"
 
@@ -41,6 +42,7 @@ int main(int argc, char** argv) {
     twill::register_triangle_shell(context.registry);
     twill::register_optimizers(context.registry);
     twill::register_experiments(context.registry);
+    twill::register_effects(context.registry);
     // -----------------------------------------------------------------------------------------
 
     app.set_version_flag("--version", std::string(TWILL_VERSION));

@@ -22,6 +22,8 @@
 #include <string>
 #include <vector>
 
+#include "core/config.hpp"
+
 namespace twill {
 
 /// One Ogden-like curve η(x) = Σ_i μ_i/α_i ((x+1)^α_i − 1) (paper §3.1). Degree = size.
@@ -55,6 +57,11 @@ struct MaterialParameters {
   Curve eta3 = Curve::linear();  ///< weft stretch curve
   Curve eta4 = Curve::linear();  ///< shear curve
   Cutoffs cutoffs;
+  /// The model's effects (effects/effect.hpp) with their parameters, as params.yaml's
+  /// `effects:` carries them (docs/dataset-format.md): registered name and resolved options.
+  /// Empty: the paper's model. Not part of the flat vector below (effects/effect.hpp has the
+  /// effects' own flat view).
+  std::vector<ComponentChoice> effects;
 
   /// Number of entries of the flat vector (depends on the three degrees).
   int flat_size() const;

@@ -1,5 +1,7 @@
 #include "core/params_io.hpp"
 
+#include "core/registry.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <fstream>
@@ -72,12 +74,12 @@ std::optional<Problem> find_problem(const MaterialParameters& p) {
 // afterwards (find_problem) still points at the right line.
 class ParamsReader {
  public:
-  explicit ParamsReader(const YamlValue& root) : root_(root) {}
+  ParamsReader(const YamlValue& root, const Registry* registry) : root_(root), registry_(registry) {}
 
   MaterialParameters read() {
     YamlMap map(root_);
     map.expect({"model", "density_kg_m2", "thickness_m", "a11_Pa", "a12_Pa", "a22_Pa", "G12_Pa", "eta1", "eta3", "eta4",
-                "cutoffs"});
+                "cutoffs", "effects"});
     MaterialParameters p;
     const YamlValue model = take(map, "model");
     if (model.as_string() != kClyde2017ModelName)
@@ -92,6 +94,7 @@ class ParamsReader {
     p.eta3 = read_curve(take(map, "eta3"));
     p.eta4 = read_curve(take(map, "eta4"));
     p.cutoffs = read_cutoffs(take(map, "cutoffs"));
+    if (const auto effects = map.find("effects")) p.effects = read_effects(*effects);
     map.finish();
     if (auto problem = find_problem(p)) {
       const std::string path = join_key_path(root_.path(), problem->key);
@@ -165,9 +168,51 @@ class ParamsReader {
     return c;
   }
 
+  // `effects:`: each key a registered effect, its value that effect's parameters resolved
+  // against its schema (config.hpp: unknown key, type and bounds are InputErrors).
+  std::vector<ComponentChoice> read_effects(const YamlValue& v) {
+    if (v.is_null()) return {};
+    YamlMap map(v);
+    std::vector<ComponentChoice> effects;
+    for (const std::string& name : map.keys()) {
+      const YamlValue value = map.get(name);
+      const RegistryCategory* category = registry_ ? registry_->find_category(registry_category::kEffect) : nullptr;
+      const RegistryEntry* entry = category ? category->find(name) : nullptr;
+      if (!entry)
+        throw value.error("unknown effect '" + name + "' (known: " + (category ? category->known_names() : "none registered") + ")");
+      effects.push_back({registry_category::kEffect, name, resolve_options(entry->options, value, registry_)});
+    }
+    map.finish();
+    return effects;
+  }
+
   YamlValue root_;
+  const Registry* registry_;
   std::map<std::string, int> lines_;
 };
+
+// An effect parameter's value as flow-style YAML (effects' schemas hold scalars).
+std::string scalar_text(const OptionValue& value) {
+  if (const auto* d = std::get_if<double>(&value)) return format_double(*d);
+  if (const auto* i = std::get_if<std::int64_t>(&value)) return std::to_string(*i);
+  if (const auto* b = std::get_if<bool>(&value)) return *b ? "true" : "false";
+  if (const auto* t = std::get_if<std::string>(&value)) return *t;
+  throw std::logic_error("params.yaml: an effect parameter that is not a scalar");
+}
+
+std::string effects_text(const std::vector<ComponentChoice>& effects) {
+  if (effects.empty()) return "";
+  std::string out = "effects:\n";
+  for (const ComponentChoice& effect : effects) {
+    out += "  " + effect.name + ": {";
+    for (std::size_t i = 0; i < effect.options.entries().size(); ++i) {
+      const OptionEntry& e = effect.options.entries()[i];
+      out += (i ? ", " : "") + e.key + ": " + scalar_text(e.value);
+    }
+    out += "}\n";
+  }
+  return out;
+}
 
 std::string list_text(const std::vector<double>& values) {
   std::string out = "[";
@@ -179,9 +224,13 @@ std::string optional_text(const std::optional<double>& value) { return value ? f
 
 }  // namespace
 
-MaterialParameters read_params(const YamlValue& value) { return ParamsReader(value).read(); }
+MaterialParameters read_params(const YamlValue& value, const Registry* registry) {
+  return ParamsReader(value, registry).read();
+}
 
-MaterialParameters read_params_file(const std::string& path) { return read_params(load_yaml_file(path)); }
+MaterialParameters read_params_file(const std::string& path, const Registry* registry) {
+  return read_params(load_yaml_file(path), registry);
+}
 
 void validate_parameters(const MaterialParameters& parameters, const std::string& source) {
   if (auto problem = find_problem(parameters)) throw InputError({source, 0, problem->key}, problem->message);
@@ -204,6 +253,7 @@ std::string params_to_yaml(const MaterialParameters& p) {
   out += "cutoffs: {E11_min: " + optional_text(c.E11_min) + ", E11_max: " + optional_text(c.E11_max) +
          ", E22_min: " + optional_text(c.E22_min) + ", E22_max: " + optional_text(c.E22_max) +
          ", E12_max: " + optional_text(c.E12_max) + "}\n";
+  out += effects_text(p.effects);
   return out;
 }
 

@@ -13,10 +13,16 @@
 //   eta4: {mu: [1.0], alpha: [1.5]}
 //   cutoffs: {E11_min: 0.0, E11_max: 0.12, E22_min: 0.0, E22_max: 0.18, E12_max: 0.35}
 //
+//   effects: {misalignment: {spread_deg: 1.5}}   # optional: the model's effects
+//
 // Every key above is required except `cutoffs.E11_min` and `cutoffs.E22_min` (default 0:
-// compression is extrapolated from zero strain, model.md §4). A cutoff is a number or `null`
-// (off). There is no `E12_min`: the shear box is symmetric. Any other key is an error, since
-// the only model defined so far, `clyde2017`, has no extra keys.
+// compression is extrapolated from zero strain, model.md §4) and `effects`. A cutoff is a
+// number or `null` (off). There is no `E12_min`: the shear box is symmetric. Any other key is
+// an error. `effects` maps a registered effect's name (core/registry.hpp, category "effect")
+// to its parameters, resolved strictly against the effect's schema (unknown effect or
+// parameter, wrong type, out of bounds: an InputError naming file, line and key; a parameter
+// left out takes the effect's default); absent or empty: the paper's model. Reading a file
+// with effects needs the registry (the readers' `registry` argument).
 //
 // Constraints checked on reading (each an InputError naming file, line and key):
 // - density_kg_m2, thickness_m, a11_Pa, a22_Pa, G12_Pa > 0;
@@ -43,18 +49,19 @@ namespace twill {
 inline constexpr const char* kClyde2017ModelName = "clyde2017";
 
 /// Reads and validates a params.yaml file. Throws InputError (file, line, key) on bad input.
-MaterialParameters read_params_file(const std::string& path);
+MaterialParameters read_params_file(const std::string& path, const Registry* registry = nullptr);
 
 /// Reads and validates a parameter block that is part of a larger YAML document (e.g. the
 /// `params:` block of data/examples/truth/<name>.yaml). Errors name value.file() and key
 /// paths below value.path().
-MaterialParameters read_params(const YamlValue& value);
+MaterialParameters read_params(const YamlValue& value, const Registry* registry = nullptr);
 
 /// Checks the constraints listed above on parameters built in code. Throws InputError with
 /// `source` as the file name (line 0) and the offending key, e.g. `eta3.alpha[1]`.
 void validate_parameters(const MaterialParameters& parameters, const std::string& source);
 
-/// params.yaml text for `parameters` (flow-style curves and cutoffs, as in the contract).
+/// params.yaml text for `parameters` (flow-style curves, cutoffs and effects, as in the
+/// contract; no `effects:` key for the paper's model).
 /// Invalid parameters are written as they are (useful for diagnosing a failed fit) but will
 /// then be rejected when read back.
 std::string params_to_yaml(const MaterialParameters& parameters);

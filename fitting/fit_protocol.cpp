@@ -19,6 +19,8 @@
 #include "core/fit_objective.hpp"
 #include "core/input_error.hpp"
 #include "core/repeat_selection.hpp"
+#include "effects/effect.hpp"
+#include "effects/misalignment.hpp"
 #include "experiments/experiment.hpp"
 #include "experiments/predictors.hpp"
 #include "experiments/uniform_strain.hpp"
@@ -35,6 +37,8 @@ OptionSchema fit_config_schema() {
   // BFGS and Ipopt hit the limits (papers/optimizer_comparison, papers/fit_examples).
   s.add_component("optimizer", registry_category::kOptimizer, "gauss-newton",
                   "minimiser of the fit objective (paper Eq. 3) in every stage");
+  s.add_component_list("effects", registry_category::kEffect,
+                       "the model's effects, estimated by the fit and written to params.yaml (twill list effect)");
   OptionSchema& experiments = s.add_section("experiments", "the simulated tests the stages fit (twill list experiment)");
   experiments.add_component("tensile", registry_category::kExperiment, "tensile",
                             "experiment of every fitted tensile run (warp, weft, bias stages)");
@@ -105,7 +109,10 @@ OptionSchema fit_config_schema() {
   bend.add_int("cells_along", 64, "cells along the overhang").at_least(4);
   bend.add_bool("find_overhang", true, "also report the simulated overhang at 41.5 degrees");
   OptionSchema& val = s.add_section("validation", "validation strips (paper §7)");
-  val.add_double("max_offset_deg", 10.0, "search the angle offset in [-this, this]").range(0.0, 45.0);
+  // The offset is the misalignment effect's per-run parameter (effects/misalignment.hpp), so
+  // its bound is the effect's.
+  val.add_double("max_offset_deg", Misalignment::kMaxOffsetDeg, "search the angle offset in [-this, this]")
+      .range(0.0, Misalignment::kMaxOffsetDeg);
   // Three steps: the error is nearly piecewise linear in the offset near its minimum, so the
   // first linearised step lands within the resolution on the example fits and a second one
   // confirms it; the third is a margin for strongly nonlinear curves.
@@ -253,12 +260,16 @@ class Protocol {
                                                        discretization_, strip, p);
     };
     solver_.gradient_tolerance = config.get_section("solver").get_double("gradient_tolerance");
+    for (const ComponentChoice& choice : config.get_component_list("effects"))
+      effects_.push_back(registry_.create<EffectFactories>(registry_category::kEffect, choice));
+    offset_effect_ = angle_offset_effect();
   }
 
   FitReport run() {
     const auto start = Clock::now();
     report_.dataset = dataset_.name;
     report_.folder = dataset_.folder;
+    check_effects_data();
     select_data();
     auto t = Clock::now();
     initial_guess();
@@ -297,6 +308,7 @@ class Protocol {
     t = Clock::now();
     if (config_.get_section("stages").get_bool("validation")) validate();
     report_.timing_s.emplace_back("validation", seconds_since(t));
+    estimate_effects();
     report_.timing_s.emplace_back("total", seconds_since(start));
     report_.parameters = params_;
     return report_;
@@ -1086,6 +1098,62 @@ class Protocol {
   // resolution, at most `validation.offset_iterations` times. The best evaluated offset wins
   // (Δθ = 0 is always evaluated). Runs of one test share their simulations (simulate_runs): the
   // nominal angle costs one curve per test, each later step one per distinct offset.
+  // ---- effects (effects/effect.hpp) ---------------------------------------------------------------
+  /// Whether an effect's per-run parameter is the strip's angle offset (its set-up hook turns
+  /// the angle by its one per-run value): the validation offsets are then its values.
+  static bool is_angle_offset(const Effect& effect) {
+    if (effect.per_run_parameters().size() != 1) return false;
+    ExperimentInput probe;
+    const std::vector<SetupChange> changes = effect.adjust_setup(Eigen::VectorXd::Ones(1), &probe);
+    return changes.size() == 1 && changes[0].quantity == setup_quantity::kAngle && changes[0].gradient.size() == 1 &&
+           changes[0].gradient[0] == 1.0;
+  }
+  /// The configured angle-offset effect, or the registry's misalignment with its defaults:
+  /// the validation stage turns its strips through this effect's set-up hook (§7's Δθ).
+  std::shared_ptr<const Effect> angle_offset_effect() const {
+    for (const auto& e : effects_)
+      if (is_angle_offset(*e)) return e;
+    const RegistryEntry& entry = registry_.find_category(registry_category::kEffect)->at(Misalignment::kName);
+    return registry_.create<EffectFactories>(
+        registry_category::kEffect,
+        ComponentChoice{registry_category::kEffect, entry.name, default_options(entry.options, nullptr)});
+  }
+  double offset_angle(double nominal_deg, double offset_deg) const {
+    ExperimentInput input;
+    input.angle_deg = nominal_deg;
+    offset_effect_->adjust_setup(Eigen::VectorXd::Constant(1, offset_deg), &input);
+    return input.angle_deg;
+  }
+  /// Every configured effect must be identifiable from this dataset (its data predicate).
+  void check_effects_data() const {
+    const auto& choices = config_.get_component_list("effects");
+    for (size_t i = 0; i < effects_.size(); ++i) {
+      const std::string missing = effects_[i]->missing_data(dataset_);
+      if (!missing.empty())
+        throw InputError({"", 0, "effects[" + std::to_string(i) + "]"},
+                         "effect '" + choices[i].name + "' cannot be fitted to dataset '" + dataset_.name + "': " + missing);
+    }
+  }
+  /// The fitted model's effects: an angle-offset effect's model parameters estimated from
+  /// the validation offsets (its per-run values); any other effect keeps its configured
+  /// parameters (the fit estimates no other per-run values yet), which a note says.
+  void estimate_effects() {
+    const auto& choices = config_.get_component_list("effects");
+    for (size_t i = 0; i < effects_.size(); ++i) {
+      ComponentChoice fitted = choices[i];
+      if (is_angle_offset(*effects_[i]) && !report_.validation.empty()) {
+        std::vector<Eigen::VectorXd> offsets;
+        for (const FitCurve& c : report_.validation) offsets.push_back(Eigen::VectorXd::Constant(1, c.delta_theta_deg));
+        fitted.options = effects_[i]->estimated_from_runs(offsets, fitted.options);
+        note("effect " + fitted.name + ": estimated from the " + std::to_string(offsets.size()) +
+             " validation offsets");
+      } else {
+        note("effect " + fitted.name + ": parameters as configured (the fit estimates none of them)");
+      }
+      params_.effects.push_back(fitted);
+    }
+  }
+
   void validate() {
     const Options& v = config_.get_section("validation");
     const double max_offset = v.get_double("max_offset_deg");
@@ -1100,7 +1168,7 @@ class Protocol {
     auto sample_all = [&](const std::vector<std::pair<size_t, double>>& wanted, bool angle_derivative) {
       std::vector<CurveRequest> requests;
       for (const auto& [i, offset] : wanted)
-        requests.push_back({&validation_runs_[i], validation_runs_[i].test->angle_deg + offset});
+        requests.push_back({&validation_runs_[i], offset_angle(validation_runs_[i].test->angle_deg, offset)});
       const auto simulated = simulate_runs(requests, finest_level_, angle_derivative);
       for (size_t r = 0; r < wanted.size(); ++r) {
         if (!simulated[r]) continue;
@@ -1170,6 +1238,8 @@ class Protocol {
   DiscretizationFactory factory_;
   EquilibriumOptions solver_;
   std::vector<RunData> fit_runs_, validation_runs_;
+  std::vector<std::shared_ptr<const Effect>> effects_;  ///< the config's, in its order
+  std::shared_ptr<const Effect> offset_effect_;         ///< turns the validation strips
   MaterialParameters params_;
   int finest_level_ = 0;  ///< the finest level any stage reached (final curves, validation)
   FitReport report_;

@@ -20,78 +20,14 @@
 #include <functional>
 #include <string>
 
-#include "core/discretization_registry.hpp"
-#include "core/params_io.hpp"
 #include "core/sensitivity.hpp"
-#include "discretizations/catmull_clark_kl/register_catmull_clark_kl.hpp"
-#include "discretizations/triangle_shell/register_triangle_shell.hpp"
-#include "experiments/experiment.hpp"
-#include "experiments/register_experiments.hpp"
 #include "experiments/tensile_strip.hpp"
+#include "tests/support/registered_parts.hpp"
 
 namespace twill {
 namespace {
 
-const Registry& registry() {
-  static const Registry r = [] {
-    Registry reg;
-    register_catmull_clark_kl(reg);
-    register_triangle_shell(reg);
-    register_experiments(reg);
-    return reg;
-  }();
-  return r;
-}
-
-std::vector<std::string> registered(const char* category) {
-  std::vector<std::string> names;
-  for (const RegistryEntry& e : registry().find_category(category)->entries()) names.push_back(e.name);
-  return names;
-}
-
-// A registered implementation with its default options.
-ComponentChoice default_choice(const char* category, const std::string& name) {
-  return {category, name, default_options(registry().find_category(category)->at(name).options, nullptr)};
-}
-
-DiscretizationFactory factory_for(const std::string& name) {
-  const ComponentChoice choice = default_choice(registry_category::kDiscretization, name);
-  return [choice](const StripSpec& s, const MaterialParameters& p) {
-    return registry().create<DiscretizationFactories>(registry_category::kDiscretization, choice, s, p);
-  };
-}
-
-// Re-solves must be converged far below the FD step's signal: Newton converges
-// quadratically, so tightening the tolerance costs one or two iterations per point.
-EquilibriumOptions tight_solver(double gradient_tolerance) {
-  EquilibriumOptions o;
-  o.gradient_tolerance = gradient_tolerance;
-  o.decrement_tolerance = 1e-22;
-  return o;
-}
-
-MaterialParameters poplin() {
-  // Degree-2 warp and weft curves, so μ[1] is a free entry of the flat vector.
-  return read_params_file(std::string(TWILL_SHARED_DIR) + "/data/reference/poplin/params.yaml");
-}
-
-// A small run of an experiment, by the quantity it schedules. An experiment scheduling a
-// quantity not listed here fails the tests below until one is added.
-struct SmallRun {
-  std::vector<double> schedule;
-  int cells_across = 0, cells_along = 0;
-  /// Re-solve tolerance and relative FD step. The cantilever's force scale is its weight
-  /// (mN): the round-off floor of ‖g_f‖ (≈ 1e-13 N, measured) is then 1e-10 of it, so its
-  /// re-solve tolerance is 1e-9 and its FD step larger (1e-3 relative) to stay above the
-  /// re-solve noise; a strip's forces are newtons, so 1e-11 and 1e-4 there.
-  double gradient_tolerance = 0, relative_step = 0;
-};
-
-std::optional<SmallRun> small_run(const std::string& schedule_quantity) {
-  if (schedule_quantity == "extension_mm") return SmallRun{{1.0, 3.0, 6.0}, 4, 6, 1e-11, 1e-4};
-  if (schedule_quantity == "overhang_mm") return SmallRun{{40.0}, 2, 16, 1e-9, 1e-3};
-  return std::nullopt;
-}
+using namespace twill::testing;
 
 // The flat entries whose derivatives are checked: a stiffness, a curve weight and exponent,
 // the shear stiffness, the thickness and the density (gravity).
@@ -99,30 +35,6 @@ std::vector<int> checked_entries(const MaterialParameters& p) {
   const FlatLayout layout(p);
   return {FlatLayout::kA11, layout.eta1, FlatLayout::alpha_offset(layout.eta1, 2) + 1, FlatLayout::kG12,
           FlatLayout::kThickness, FlatLayout::kDensity};
-}
-
-// FD step: a fraction of the parameter's magnitude (1 when it is zero).
-double relative_step(double value, double fraction) {
-  return fraction * (value != 0 ? std::abs(value) : 1.0);
-}
-
-// Compares analytic derivatives with central differences at steps h and h/2. Counts how many
-// comparisons counted (where the FD is accurate, see the header).
-struct Comparison {
-  int counted = 0;
-  int total = 0;
-  double worst = 0;
-};
-
-void compare(const std::string& what, double analytic, double fd_h, double fd_h2, double scale, Comparison* c) {
-  ++c->total;
-  const double fd_error = std::abs(fd_h - fd_h2);
-  if (fd_error > 1e-6 * scale) return;
-  ++c->counted;
-  const double rel = std::abs(analytic - fd_h2) / scale;
-  c->worst = std::max(c->worst, rel);
-  EXPECT_LE(rel, 1e-5) << what << ": analytic " << analytic << ", FD " << fd_h2 << " (FD self-difference "
-                       << fd_error << ")";
 }
 
 struct Case {
@@ -137,10 +49,7 @@ std::vector<Case> every_case() {
 }
 
 std::string case_name(const ::testing::TestParamInfo<Case>& info) {
-  std::string n = info.param.experiment + "_" + info.param.discretization;
-  for (char& ch : n)
-    if (ch == '-') ch = '_';
-  return n;
+  return test_name(info.param.experiment + "_" + info.param.discretization);
 }
 
 class EveryExperiment : public ::testing::TestWithParam<Case> {
@@ -152,22 +61,8 @@ class EveryExperiment : public ::testing::TestWithParam<Case> {
     ExperimentInput input;
     input.label = GetParam().experiment;
     input.angle_deg = angle_deg;
-    input.discretization = factory_for(GetParam().discretization);
     input.start = p;
-    const ComponentChoice choice = default_choice(registry_category::kExperiment, GetParam().experiment);
-    auto create = [&](const ExperimentInput& in) {
-      return registry().create<ExperimentFactories>(registry_category::kExperiment, choice, in);
-    };
-    const std::string quantity = create(input)->schedule_quantity();  // empty schedule: simulation only
-    const std::optional<SmallRun> run = small_run(quantity);
-    if (!run) ADD_FAILURE() << "no small run for an experiment scheduling '" << quantity << "': add one";
-    if (!run) return nullptr;
-    input.schedule = run->schedule;
-    input.cells_across = run->cells_across;
-    input.cells_along = run->cells_along;
-    input.solver = tight_solver(run->gradient_tolerance);
-    step_ = run->relative_step;
-    return create(input);
+    return small_experiment(GetParam().experiment, GetParam().discretization, input, &step_);
   }
   mutable double step_ = 0;
 };
@@ -200,12 +95,12 @@ TEST_P(EveryExperiment, ObservableDerivativesMatchFiniteDifferencesOfResolves) {
     const Eigen::VectorXd fd_h = (values_at(index, h) - values_at(index, -h)) / (2 * h);
     const Eigen::VectorXd fd_h2 = (values_at(index, h / 2) - values_at(index, -h / 2)) / h;
     for (Eigen::Index i = 0; i < values.size(); ++i)
-      compare(experiment->label() + " " + experiment->observable() + "[" + std::to_string(i) + "] d/d" +
+      c.compare(experiment->label() + " " + experiment->observable() + "[" + std::to_string(i) + "] d/d" +
                   base.parameter_names()[static_cast<size_t>(index)],
               jacobian(i, static_cast<Eigen::Index>(j)), fd_h[i], fd_h2[i],
               // Scale: the observable's own size per relative parameter change, so a derivative
               // that is legitimately ~0 is compared on the scale of the others.
-              std::abs(values[i]) / std::abs(relative_step(k0[index], 1.0)), &c);
+              std::abs(values[i]) / std::abs(relative_step(k0[index], 1.0)));
   }
   std::printf("[measured] %s on %s: %d/%d compared (worst rel %.2e)\n", GetParam().experiment.c_str(),
               GetParam().discretization.c_str(), c.counted, c.total, c.worst);
@@ -239,8 +134,8 @@ TEST_P(EveryExperiment, SetupDerivativesMatchFiniteDifferencesOfResolves) {
   const Eigen::VectorXd fd_h2 = (values_at(h / 2) - values_at(-h / 2)) / h;
   Comparison c;
   for (Eigen::Index i = 0; i < values.size(); ++i)
-    compare(experiment->label() + " d" + experiment->observable() + "[" + std::to_string(i) + "]/dθ", jacobian(i, 0),
-            fd_h[i], fd_h2[i], std::abs(values[i]) /* per degree */, &c);
+    c.compare(experiment->label() + " d" + experiment->observable() + "[" + std::to_string(i) + "]/dθ", jacobian(i, 0),
+            fd_h[i], fd_h2[i], std::abs(values[i]) /* per degree */);
   std::printf("[measured] %s on %s: d/dtheta %d/%d compared (worst rel %.2e)\n", GetParam().experiment.c_str(),
               GetParam().discretization.c_str(), c.counted, c.total, c.worst);
   EXPECT_EQ(c.counted, c.total);
@@ -285,12 +180,12 @@ TEST_P(LateralStrainSensitivity, MatchesFiniteDifferencesOfResolves) {
     const TensileCurve plus2 = rerun(index, h / 2), minus2 = rerun(index, -h / 2);
     for (size_t i = 0; i < extensions.size(); ++i) {
       const auto& p = curve.points[i];
-      compare(disc + " lateral strain d/d" + base.parameter_names()[static_cast<size_t>(index)] + " at " +
+      lateral.compare(disc + " lateral strain d/d" + base.parameter_names()[static_cast<size_t>(index)] + " at " +
                   std::to_string(extensions[i]) + " mm",
               p.dlateral_strain_dk[static_cast<Eigen::Index>(j)],
               (plus.points[i].lateral_strain - minus.points[i].lateral_strain) / (2 * h),
               (plus2.points[i].lateral_strain - minus2.points[i].lateral_strain) / h,
-              std::abs(p.lateral_strain) / std::abs(relative_step(k0[index], 1.0)), &lateral);
+              std::abs(p.lateral_strain) / std::abs(relative_step(k0[index], 1.0)));
     }
   }
   std::printf("[measured] %s: lateral %d/%d compared (worst %.2e)\n", disc.c_str(), lateral.counted, lateral.total,
@@ -300,12 +195,7 @@ TEST_P(LateralStrainSensitivity, MatchesFiniteDifferencesOfResolves) {
 
 INSTANTIATE_TEST_SUITE_P(Registered, LateralStrainSensitivity,
                          ::testing::ValuesIn(registered(registry_category::kDiscretization)),
-                         [](const auto& info) {
-                           std::string n = info.param;
-                           for (char& ch : n)
-                             if (ch == '-') ch = '_';
-                           return n;
-                         });
+                         [](const auto& info) { return test_name(info.param); });
 
 }  // namespace
 }  // namespace twill

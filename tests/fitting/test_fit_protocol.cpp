@@ -14,6 +14,7 @@
 #include "core/yaml_reader.hpp"
 #include "discretizations/catmull_clark_kl/register_catmull_clark_kl.hpp"
 #include "discretizations/triangle_shell/register_triangle_shell.hpp"
+#include "effects/register_effects.hpp"
 #include "experiments/register_experiments.hpp"
 #include "fitting/fit_protocol.hpp"
 #include "optimizers/optimizer_factory.hpp"
@@ -28,6 +29,7 @@ Registry& registry() {
     register_triangle_shell(reg);
     register_optimizers(reg);
     register_experiments(reg);
+    register_effects(reg);
     return reg;
   }();
   return r;

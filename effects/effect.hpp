@@ -1,0 +1,104 @@
+#pragma once
+// Effect: a named extension of the paper's model with parameters of its own (registry
+// category "effect"; issue #14, docs/extending.md). The effect library (hysteresis,
+// rate dependence, misalignment, …) and `twill discover` are built on this interface.
+//
+// An effect has
+//   - model parameters: its registered option schema (name with the unit as suffix, e.g.
+//     `spread_deg`; bounds; default; doc). They are what params.yaml carries under `effects:`
+//     (core/params_io.hpp) and what a simulator uses; the factory receives their values;
+//   - per-run parameters: nuisance parameters every run of a dataset gets (e.g. the angle at
+//     which that strip was cut), solved by a fit and reported, not written to params.yaml;
+//   - a data predicate, missing_data(): what a dataset must carry for the effect to be
+//     identifiable (unloading rows, several rates, lateral strain, bend directions, repeats
+//     per angle), in words when it is missing;
+//   - hooks through which it changes predictions: the material law, an experiment's set-up,
+//     the observables. Every hook has a no-op default; an effect overrides the ones it uses.
+//     A set-up hook returns d(set-up quantity)/d(per-run parameter), which chains with the
+//     experiment's set-up derivatives (experiments/experiment.hpp) into exact derivatives
+//     of the observables in the effect's parameters.
+//
+// Flat view: effect_parameters() lists the model parameters of a model's effects as the
+// optimisers see any parameter (name, unit, bounds, value; in a fixed order) and
+// set_effect_parameters() writes such a vector back, bounds checked.
+//
+// Factory: (resolved options = the model parameters) -> the effect.
+#include <Eigen/Core>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "core/config.hpp"
+#include "core/dataset.hpp"
+#include "core/parameters.hpp"
+#include "core/registry.hpp"
+#include "experiments/experiment.hpp"
+
+namespace twill {
+
+/// One scalar parameter of an effect, as optimisers and reports see it.
+struct EffectParameter {
+  std::string name;  ///< e.g. "misalignment.spread_deg", "misalignment.offset_deg"
+  std::string unit;  ///< the name's suffix after the last '_', e.g. "deg"
+  std::string doc;   ///< one line
+  double lower = -std::numeric_limits<double>::infinity();
+  double upper = std::numeric_limits<double>::infinity();
+  double value = 0;  ///< the current value (a per-run parameter: its default)
+};
+
+/// How a set-up hook changed one set-up quantity: d(quantity)/d(each per-run parameter).
+struct SetupChange {
+  std::string quantity;     ///< setup_quantity::kAngle, ...
+  Eigen::VectorXd gradient;  ///< one entry per per-run parameter of the effect
+};
+
+class Effect {
+ public:
+  virtual ~Effect() = default;
+
+  /// Empty when `dataset` carries what this effect needs, otherwise what is missing, e.g.
+  /// "needs at least two repeats at some tensile angle".
+  virtual std::string missing_data(const Dataset& dataset) const = 0;
+
+  /// The parameters each run gets (with their defaults as values); none by default.
+  virtual std::vector<EffectParameter> per_run_parameters() const { return {}; }
+  /// The model parameters estimated from the runs' fitted per-run values (one vector per run,
+  /// in per_run_parameters() order), e.g. a spread from offsets. Default: unchanged.
+  virtual Options estimated_from_runs(const std::vector<Eigen::VectorXd>& run_values, const Options& model) const {
+    (void)run_values;
+    return model;
+  }
+
+  /// Hook: the material law an experiment simulates. Default: unchanged.
+  virtual MaterialParameters adjusted_material(const MaterialParameters& parameters) const { return parameters; }
+  /// Hook: the set-up of one run's experiment, given that run's per-run values. Returns the
+  /// quantities it changed with their derivatives. Default: no change.
+  virtual std::vector<SetupChange> adjust_setup(const Eigen::VectorXd& run_values, ExperimentInput* input) const {
+    (void)run_values;
+    (void)input;
+    return {};
+  }
+  /// Hook: the observables after simulation, given the run's per-run values. Default:
+  /// unchanged. (Its derivative counterpart comes with the first effect that uses this hook.)
+  virtual void adjust_observables(const Eigen::VectorXd& run_values, Eigen::VectorXd* values) const {
+    (void)run_values;
+    (void)values;
+  }
+};
+
+using EffectFactories = FactoryCategory<Effect>;
+
+/// The model parameters of `effects` (params.yaml's `effects:`) as one flat list: every
+/// double option of each effect in schema order, named "<effect>.<option>", with the
+/// schema's bounds. Integer, bool and text options are choices, not parameters: skipped.
+std::vector<EffectParameter> effect_parameters(const std::vector<ComponentChoice>& effects, const Registry& registry);
+/// Writes `values` (effect_parameters() order) back into `effects`. Throws InputError naming
+/// the parameter when a value violates its bounds, std::invalid_argument on a size mismatch.
+void set_effect_parameters(const Eigen::VectorXd& values, const Registry& registry,
+                           std::vector<ComponentChoice>* effects);
+
+/// The unit of a parameter named with its unit as suffix ("spread_deg" -> "deg"); empty when
+/// the name has no '_'.
+std::string unit_of(const std::string& name);
+
+}  // namespace twill
