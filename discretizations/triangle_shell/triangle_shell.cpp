@@ -173,6 +173,26 @@ void validate_parameters(const MaterialParameters& p) {
 
 Eigen::Vector3d vertex(const Eigen::VectorXd& q, int v) { return q.segment<3>(3 * v); }
 
+/// Derivatives of a hinge term W = k g θ² (kg = k g) over the first N/3 vertices of its angle:
+/// all 4 of a hinge, or a clamp hinge's real triangle (its ghost apex is fixed, so only that
+/// 9×9 block enters). ∂W/∂x = 2 kg θ ∇θ is added to `gradient`, ∂²W/∂x² = 2 kg (∇θ∇θᵀ + θ∇²θ)
+/// through the element's slots to `hessian_values` (each when not null).
+template <int N>
+void scatter_squared_angle(double kg, double theta, const Vector12& dtheta, const Matrix12& d2theta,
+                           std::span<const int> vertices, const int* slots, double* gradient,
+                           double* hessian_values) {
+  if (gradient) {
+    const Eigen::Matrix<double, N, 1> local = 2.0 * kg * theta * dtheta.head<N>();
+    scatter_nodal(gradient, vertices, node_major(local));
+  }
+  if (hessian_values) {
+    const Eigen::Matrix<double, N, N> H =
+        2.0 * kg *
+        (dtheta.head<N>() * dtheta.head<N>().transpose() + theta * d2theta.topLeftCorner<N, N>());
+    scatter_hessian(hessian_values, slots, N / 3, node_major_blocks(H));
+  }
+}
+
 }  // namespace
 
 /// A boundary edge on a clamped end line, hinged against a ghost triangle fixed in the rest
@@ -542,7 +562,6 @@ void TriangleShell::set_parameters(const MaterialParameters& parameters) {
 double TriangleShell::energy(const Eigen::VectorXd& q, Eigen::VectorXd* gradient,
                              SparseMatrix* hessian) const {
   const Impl& m = *impl_;
-  const StripTriangulation& t = m.tri;
   assert(q.size() == num_dofs());
   const double tau = law_->parameters().thickness_m;
   const double rho = law_->parameters().density_kg_m2;
@@ -568,47 +587,20 @@ double TriangleShell::energy(const Eigen::VectorXd& q, Eigen::VectorXd* gradient
       return;
     }
     if (m.shape) return;  // bending: shape_operator_pass below
-    if (id >= nf + nh) {
-      // Clamp hinge: the ghost apex is fixed, so only the 9×9 block of the real triangle's
-      // vertices enters, and it lands on that triangle's blocks of the pattern.
-      const ClampHinge& c = m.clamp_hinges[static_cast<size_t>(id - nf - nh)];
-      const double kg = clamp_k * c.weight;
-      Vector12 dtheta;
-      Matrix12 d2theta;
-      const double theta =
-          dihedral_angle(vertex(q, c.v[0]), vertex(q, c.v[1]), vertex(q, c.v[2]), c.ghost,
-                         (gradient || hessian) ? &dtheta : nullptr, hessian ? &d2theta : nullptr);
-      element_energy[static_cast<size_t>(id)] = kg * theta * theta;
-      if (gradient) {
-        const Vector9 local_gradient = 2.0 * kg * theta * dtheta.head<9>();
-        scatter_nodal(g, c.v, node_major(local_gradient));
-      }
-      if (hessian) {
-        const Matrix9 H = 2.0 * kg *
-                          (dtheta.head<9>() * dtheta.head<9>().transpose() +
-                           theta * d2theta.topLeftCorner<9, 9>());
-        scatter_hessian(values, m.pattern.slots(id), 3, node_major_blocks(H));
-      }
-      return;
-    }
-    const int h = id - nf;
-    const auto hu = static_cast<size_t>(h);
-    const Hinge& hinge = t.hinges[hu];
-    const double kg = hinges_.per_hinge[h] * m.hinge_weight[hu];
+    // Hinge, or clamp hinge (angle id = element id − #faces): W = k g θ².
+    const int a = id - nf;
+    const double kg = a < nh ? hinges_.per_hinge[a] * m.hinge_weight[static_cast<size_t>(a)]
+                             : clamp_k * m.clamp_hinges[static_cast<size_t>(a - nh)].weight;
     Vector12 dtheta;
     Matrix12 d2theta;
-    const double theta = dihedral_angle(
-        vertex(q, hinge.v[0]), vertex(q, hinge.v[1]), vertex(q, hinge.v[2]), vertex(q, hinge.v[3]),
-        (gradient || hessian) ? &dtheta : nullptr, hessian ? &d2theta : nullptr);
+    const double theta = m.angle(q, a, (gradient || hessian) ? &dtheta : nullptr,
+                                 hessian ? &d2theta : nullptr);
     element_energy[static_cast<size_t>(id)] = kg * theta * theta;
-    if (gradient) {
-      const Vector12 local_gradient = 2.0 * kg * theta * dtheta;
-      scatter_nodal(g, hinge.v, node_major(local_gradient));
-    }
-    if (hessian) {
-      const Matrix12 H = 2.0 * kg * (dtheta * dtheta.transpose() + theta * d2theta);
-      scatter_hessian(values, m.pattern.slots(id), 4, node_major_blocks(H));
-    }
+    const std::span<const int> v = m.elements[id];
+    if (v.size() == 4)
+      scatter_squared_angle<12>(kg, theta, dtheta, d2theta, v, m.pattern.slots(id), g, values);
+    else
+      scatter_squared_angle<9>(kg, theta, dtheta, d2theta, v, m.pattern.slots(id), g, values);
   };
 
   if (gradient || hessian) {
