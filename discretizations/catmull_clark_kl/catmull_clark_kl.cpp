@@ -1,22 +1,21 @@
 #include "discretizations/catmull_clark_kl/catmull_clark_kl.hpp"
 
-#include <tbb/blocked_range.h>
-#include <tbb/enumerable_thread_specific.h>
-#include <tbb/parallel_for.h>
-#include <tbb/task_arena.h>
-
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <cstdint>
-#include <functional>
 #include <numbers>
 #include <sstream>
 #include <stdexcept>
 #include <utility>
 
 #include "core/input_error.hpp"
+#include "discretizations/assembly/block_scatter.hpp"
+#include "discretizations/assembly/element_nodes.hpp"
+#include "discretizations/assembly/element_schedule.hpp"
+#include "discretizations/assembly/hessian_pattern.hpp"
+#include "discretizations/assembly/nodal_gravity.hpp"
+#include "discretizations/assembly/parallel_runner.hpp"
 #include "discretizations/catmull_clark_kl/kirchhoff_love_face.hpp"
 #include "discretizations/catmull_clark_kl/kirchhoff_love_kernel.hpp"
 
@@ -24,7 +23,6 @@ namespace twill {
 namespace {
 
 using BasisTable = Eigen::Matrix<double, 6, 16>;  // rows as PatchBasis::weights
-constexpr int kSlotsPerFace = 16 * 16 * 3;
 
 /// (key, message) of the first invalid option; key empty when all are valid.
 std::pair<std::string, std::string> first_invalid_option(const CatmullClarkKLOptions& o) {
@@ -71,15 +69,16 @@ void validate_parameters(const MaterialParameters& p) {
     throw InputError(InputLocation{"", 0, "density_kg_m2"}, "density must be finite");
 }
 
-/// Per-thread 48 × num_parameters scratch of gradient_parameter_jacobian (allocated once).
-FaceParameterJacobian& parameter_workspace() {
-  thread_local FaceParameterJacobian local;
-  return local;
-}
-
 /// Surface jet of a basis table's point: the face kernel's own function (see face_jet).
 SurfaceJet jet_of(const BasisTable& table, const FaceCoordinates& X) {
   return face_jet(table.bottomRows<5>().transpose(), X);
+}
+
+/// The face's 16 control points at q (row k: node k).
+FaceCoordinates face_coordinates(const Eigen::VectorXd& q, std::span<const int> nodes) {
+  FaceCoordinates X;
+  for (int k = 0; k < 16; ++k) X.row(k) = q.segment<3>(3 * nodes[static_cast<size_t>(k)]).transpose();
+  return X;
 }
 
 }  // namespace
@@ -87,89 +86,34 @@ SurfaceJet jet_of(const BasisTable& table, const FaceCoordinates& X) {
 std::string CatmullClarkKLOptions::validate() const { return first_invalid_option(*this).second; }
 
 struct CatmullClarkKL::Mesh {
+  explicit Mesh(int threads) : runner(threads) {}
+
   int points_per_face = 0;
   std::vector<Eigen::Vector2d> gauss_uv;        // per point of a face
   std::vector<BasisTable> basis_tables;         // [table · points_per_face + point]
   std::vector<JetBasis> jet_basis;              // Dᵀ of basis_tables, contiguous, same index
   std::vector<int> face_table;                  // per face
-  std::vector<std::array<int, 16>> face_nodes;  // per face
+  ElementNodes face_nodes;                      // per face: its 16 control points
   std::vector<ReferencePoint> reference;        // [face · points_per_face + point]
   /// Reference (x, y) = c0 + u c1 + v c2 on each face (its affine parametrisation).
   std::vector<Eigen::Matrix<double, 2, 3>> face_affine;
   Eigen::VectorXd node_area;  // ∫ N_i dA per node [m²]
-  // Hessian pattern (CSC, both triangles) and per face the position of entry
-  // (3 nodes[i], 3 nodes[j] + b) at [face · kSlotsPerFace + (16 i + j) · 3 + b]; rows
-  // 3 nodes[i] + 1, + 2 follow it directly.
-  std::vector<int> hessian_outer, hessian_inner;
-  std::vector<int> block_slots;
-  std::vector<std::vector<int>> colours;  // faces of one colour share no node
+  HessianPattern pattern;     // both triangles; element = face (slot tables 16·16·3)
+  ElementSchedule colours;    // greedy colouring: faces of one colour share no node
+  ParallelRunner runner;
 
   std::size_t bytes() const {
     std::size_t total = gauss_uv.capacity() * sizeof(Eigen::Vector2d) +
                         basis_tables.capacity() * sizeof(BasisTable) +
                         jet_basis.capacity() * sizeof(JetBasis) +
-                        face_table.capacity() * sizeof(int) +
-                        face_nodes.capacity() * sizeof(std::array<int, 16>) +
+                        face_table.capacity() * sizeof(int) + face_nodes.bytes() +
                         reference.capacity() * sizeof(ReferencePoint) +
                         face_affine.capacity() * sizeof(Eigen::Matrix<double, 2, 3>) +
                         static_cast<std::size_t>(node_area.size()) * sizeof(double) +
-                        (hessian_outer.capacity() + hessian_inner.capacity() +
-                         block_slots.capacity()) * sizeof(int);
-    for (const auto& c : colours) total += c.capacity() * sizeof(int);
+                        pattern.bytes() + colours.bytes();
     return total;
   }
 };
-
-namespace {
-
-/// Runs `body(face, outputs)` for every face, in parallel; the body scatter-adds into the
-/// output arrays `targets` (pointer, length). Colouring: faces of one colour run
-/// concurrently and write straight into the targets (they touch disjoint entries). Thread
-/// local: each thread adds into private zeroed copies, summed into the targets at the end.
-using FaceBody = std::function<void(int face, double* const* outputs)>;
-
-void for_each_face(const std::vector<std::vector<int>>& colours, int num_faces,
-                   CatmullClarkKLOptions::Assembly assembly, int threads,
-                   const std::vector<std::pair<double*, std::size_t>>& targets,
-                   const FaceBody& body) {
-  tbb::task_arena arena(threads > 0 ? threads : tbb::task_arena::automatic);
-  arena.execute([&] {
-    if (assembly == CatmullClarkKLOptions::Assembly::Colouring) {
-      std::vector<double*> outputs;
-      for (const auto& t : targets) outputs.push_back(t.first);
-      for (const std::vector<int>& colour : colours)
-        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, colour.size()),
-                          [&](const tbb::blocked_range<std::size_t>& range) {
-                            for (std::size_t k = range.begin(); k != range.end(); ++k)
-                              body(colour[k], outputs.data());
-                          });
-      return;
-    }
-    using Buffers = std::vector<std::vector<double>>;
-    tbb::enumerable_thread_specific<Buffers> local([&] {
-      Buffers buffers;
-      for (const auto& t : targets) buffers.emplace_back(t.second, 0.0);
-      return buffers;
-    });
-    tbb::parallel_for(tbb::blocked_range<int>(0, num_faces),
-                      [&](const tbb::blocked_range<int>& range) {
-                        Buffers& buffers = local.local();
-                        std::vector<double*> outputs;
-                        for (auto& b : buffers) outputs.push_back(b.data());
-                        for (int face = range.begin(); face != range.end(); ++face)
-                          body(face, outputs.data());
-                      });
-    for (std::size_t t = 0; t < targets.size(); ++t)
-      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, targets[t].second),
-                        [&](const tbb::blocked_range<std::size_t>& range) {
-                          for (const Buffers& buffers : local)
-                            for (std::size_t i = range.begin(); i != range.end(); ++i)
-                              targets[t].first[i] += buffers[t][i];
-                        });
-  });
-}
-
-}  // namespace
 
 CatmullClarkKL::CatmullClarkKL(const StripSpec& strip, const MaterialParameters& parameters,
                                const CatmullClarkKLOptions& options)
@@ -195,7 +139,7 @@ CatmullClarkKL::CatmullClarkKL(const StripSpec& strip, const MaterialParameters&
   const Eigen::Vector3d d2(std::cos(theta), std::sin(theta), 0.0);
   const Eigen::Vector3d d1(-std::sin(theta), std::cos(theta), 0.0);
 
-  auto mesh = std::make_unique<Mesh>();
+  auto mesh = std::make_unique<Mesh>(options.threads);
   const GaussLegendreRule face_rule = GaussLegendreRule::make(options.gauss_points_per_direction);
   const int ng = face_rule.size();
   mesh->points_per_face = ng * ng;
@@ -210,7 +154,6 @@ CatmullClarkKL::CatmullClarkKL(const StripSpec& strip, const MaterialParameters&
 
   const int npf = mesh->points_per_face;
   mesh->face_table.resize(static_cast<size_t>(num_faces_total));
-  mesh->face_nodes.resize(static_cast<size_t>(num_faces_total));
   mesh->reference.resize(static_cast<size_t>(num_faces_total * npf));
   mesh->face_affine.resize(static_cast<size_t>(num_faces_total));
   mesh->node_area = Eigen::VectorXd::Zero(basis_->num_nodes());
@@ -222,7 +165,7 @@ CatmullClarkKL::CatmullClarkKL(const StripSpec& strip, const MaterialParameters&
                                mesh->gauss_uv[static_cast<size_t>(p)].y());
       tables[static_cast<size_t>(p)] = basis.weights;
     }
-    mesh->face_nodes[static_cast<size_t>(face)] = basis.nodes;
+    mesh->face_nodes.add(basis.nodes);
     // Faces of the same boundary type have bitwise identical tables: store each once.
     int table = -1;
     for (std::size_t t = 0; t * static_cast<size_t>(npf) < mesh->basis_tables.size() && table < 0;
@@ -262,54 +205,8 @@ CatmullClarkKL::CatmullClarkKL(const StripSpec& strip, const MaterialParameters&
     mesh->jet_basis.emplace_back(table.bottomRows<5>().transpose());
 
   // Hessian pattern: nodes i, j are coupled when some face's patch uses both.
-  const int num_nodes_total = basis_->num_nodes();
-  std::vector<std::vector<int>> neighbours(static_cast<size_t>(num_nodes_total));
-  for (const auto& nodes : mesh->face_nodes)
-    for (int a : nodes)
-      for (int b : nodes) neighbours[static_cast<size_t>(b)].push_back(a);
-  for (auto& list : neighbours) {
-    std::sort(list.begin(), list.end());
-    list.erase(std::unique(list.begin(), list.end()), list.end());
-  }
-  mesh->hessian_outer.assign(static_cast<size_t>(3 * num_nodes_total + 1), 0);
-  for (int b = 0; b < num_nodes_total; ++b)
-    for (int c = 0; c < 3; ++c) {
-      const std::size_t column = static_cast<size_t>(3 * b + c);
-      mesh->hessian_outer[column + 1] =
-          mesh->hessian_outer[column] + 3 * static_cast<int>(neighbours[static_cast<size_t>(b)].size());
-      for (int a : neighbours[static_cast<size_t>(b)])
-        for (int r = 0; r < 3; ++r) mesh->hessian_inner.push_back(3 * a + r);
-    }
-  mesh->block_slots.resize(static_cast<size_t>(num_faces_total) * kSlotsPerFace);
-  for (int face = 0; face < num_faces_total; ++face) {
-    const auto& nodes = mesh->face_nodes[static_cast<size_t>(face)];
-    for (int i = 0; i < 16; ++i)
-      for (int j = 0; j < 16; ++j) {
-        const auto& column_nodes = neighbours[static_cast<size_t>(nodes[static_cast<size_t>(j)])];
-        const auto rank = std::lower_bound(column_nodes.begin(), column_nodes.end(),
-                                           nodes[static_cast<size_t>(i)]) -
-                          column_nodes.begin();
-        for (int c = 0; c < 3; ++c)
-          mesh->block_slots[static_cast<size_t>(face) * kSlotsPerFace +
-                            static_cast<size_t>((16 * i + j) * 3 + c)] =
-              mesh->hessian_outer[static_cast<size_t>(3 * nodes[static_cast<size_t>(j)] + c)] +
-              3 * static_cast<int>(rank);
-      }
-  }
-
-  // Greedy colouring: a face takes the lowest colour that none of its nodes has seen yet.
-  std::vector<std::uint64_t> node_colours(static_cast<size_t>(num_nodes_total), 0);
-  for (int face = 0; face < num_faces_total; ++face) {
-    std::uint64_t used = 0;
-    for (int node : mesh->face_nodes[static_cast<size_t>(face)]) used |= node_colours[static_cast<size_t>(node)];
-    int colour = 0;
-    while (colour < 64 && (used >> colour) & 1u) ++colour;
-    if (colour == 64) throw std::logic_error("CatmullClarkKL: face colouring needs > 64 colours");
-    for (int node : mesh->face_nodes[static_cast<size_t>(face)])
-      node_colours[static_cast<size_t>(node)] |= std::uint64_t{1} << colour;
-    if (static_cast<int>(mesh->colours.size()) <= colour) mesh->colours.resize(static_cast<size_t>(colour + 1));
-    mesh->colours[static_cast<size_t>(colour)].push_back(face);
-  }
+  mesh->pattern = HessianPattern(basis_->num_nodes(), mesh->face_nodes);
+  mesh->colours = ElementSchedule::colouring(mesh->face_nodes, basis_->num_nodes());
   mesh_ = std::move(mesh);
 }
 
@@ -351,74 +248,47 @@ double CatmullClarkKL::energy(const Eigen::VectorXd& q, Eigen::VectorXd* gradien
   check_positions(q, "energy");
   const Mesh& mesh = *mesh_;
   const int n = num_dofs();
-  const std::size_t nnz = mesh.hessian_inner.size();
   if (gradient) gradient->setZero(n);
-  if (hessian) {
-    // Keep the caller's matrix when it already has this pattern: values only, no allocation.
-    const bool same_pattern =
-        hessian->rows() == n && hessian->cols() == n && hessian->isCompressed() &&
-        static_cast<std::size_t>(hessian->nonZeros()) == nnz &&
-        std::equal(mesh.hessian_outer.begin(), mesh.hessian_outer.end(),
-                   hessian->outerIndexPtr()) &&
-        std::equal(mesh.hessian_inner.begin(), mesh.hessian_inner.end(),
-                   hessian->innerIndexPtr());
-    if (!same_pattern) {
-      hessian->resize(n, n);
-      hessian->resizeNonZeros(static_cast<Eigen::Index>(nnz));
-      std::copy(mesh.hessian_outer.begin(), mesh.hessian_outer.end(), hessian->outerIndexPtr());
-      std::copy(mesh.hessian_inner.begin(), mesh.hessian_inner.end(), hessian->innerIndexPtr());
-    }
-    std::fill(hessian->valuePtr(), hessian->valuePtr() + nnz, 0.0);
-  }
+  double* const values = hessian ? mesh.pattern.prepare(hessian) : nullptr;
 
   std::vector<double> face_energy(static_cast<size_t>(num_faces()), 0.0);
-  std::vector<std::pair<double*, std::size_t>> targets;
-  if (gradient) targets.emplace_back(gradient->data(), static_cast<std::size_t>(n));
-  if (hessian) targets.emplace_back(hessian->valuePtr(), nnz);
   const double tau = law_.parameters().thickness_m;
-
-  const FaceBody body = [&](int face, double* const* outputs) {
-    const auto& nodes = mesh.face_nodes[static_cast<size_t>(face)];
-    FaceCoordinates X;
-    for (int k = 0; k < 16; ++k) X.row(k) = q.segment<3>(3 * nodes[static_cast<size_t>(k)]).transpose();
+  // One face into `g` and `H` (the gradient and Hessian values, or private copies of them).
+  auto add_face = [&](int face, double* g, double* H) {
+    const std::span<const int> nodes = mesh.face_nodes[face];
     FaceCoordinates face_gradient;
     FaceHessianBlocks blocks;  // (a, b) component blocks, a ≤ b, of the 48×48 Hessian
-    const double E = kirchhoff_love_face(law_, tau, thickness_rule_, face_quadrature(face),
-                                         X, gradient ? &face_gradient : nullptr,
-                                         hessian ? &blocks : nullptr);
-    face_energy[static_cast<size_t>(face)] = E;
-    int out = 0;
-    if (gradient) {
-      double* g = outputs[out++];
-      for (int k = 0; k < 16; ++k)
-        for (int c = 0; c < 3; ++c) g[3 * nodes[static_cast<size_t>(k)] + c] += face_gradient(k, c);
-    }
-    if (hessian) {
-      double* values = outputs[out++];
-      const int* slots = mesh.block_slots.data() + static_cast<std::size_t>(face) * kSlotsPerFace;
-      for (int i = 0; i < 16; ++i)
-        for (int j = 0; j < 16; ++j)
-          for (int b = 0; b < 3; ++b) {
-            double* column = values + slots[(16 * i + j) * 3 + b];
-            for (int a = 0; a < 3; ++a)
-              column[a] += a <= b ? blocks[static_cast<size_t>(face_block_index(a, b))](i, j)
-                                  : blocks[static_cast<size_t>(face_block_index(b, a))](j, i);
-          }
-    }
+    face_energy[static_cast<size_t>(face)] =
+        kirchhoff_love_face(law_, tau, thickness_rule_, face_quadrature(face),
+                            face_coordinates(q, nodes), g ? &face_gradient : nullptr,
+                            H ? &blocks : nullptr);
+    if (g) scatter_nodal(g, nodes, [&](int k, int c) { return face_gradient(k, c); });
+    // Entry (3 i + a, 3 j + b) of the local Hessian is block (a, b) at (i, j), or the
+    // transpose of block (b, a) below the diagonal.
+    if (H)
+      scatter_hessian(H, mesh.pattern.slots(face), 16, [&](int i, int a, int j, int b) {
+        return a <= b ? blocks[static_cast<size_t>(face_block_index(a, b))](i, j)
+                      : blocks[static_cast<size_t>(face_block_index(b, a))](j, i);
+      });
   };
-  for_each_face(mesh.colours, num_faces(), options_.assembly, options_.threads, targets, body);
+  double* const g = gradient ? gradient->data() : nullptr;
+  if (options_.assembly == CatmullClarkKLOptions::Assembly::Colouring) {
+    mesh.runner.run(mesh.colours, [&](std::span<const int> faces) {
+      for (int face : faces) add_face(face, g, values);
+    });
+  } else {
+    std::vector<std::pair<double*, std::size_t>> targets;
+    if (g) targets.emplace_back(g, static_cast<std::size_t>(n));
+    if (values) targets.emplace_back(values, mesh.pattern.num_nonzeros());
+    mesh.runner.run_with_private_copies(num_faces(), targets, [&](int begin, int end, double* const* outputs) {
+      for (int face = begin; face < end; ++face) add_face(face, g ? outputs[0] : nullptr, values ? outputs[g ? 1 : 0] : nullptr);
+    });
+  }
 
   double total = 0.0;
   for (double e : face_energy) total += e;  // serial sum: deterministic
-  // Gravity: Ψ_g = −ρ_A Σ_i (∫N_i dA) g·x_i, exact since x is linear in q.
-  const double rho = law_.parameters().density_kg_m2;
-  if (gravity_.squaredNorm() > 0)
-    for (int i = 0; i < num_nodes(); ++i) {
-      const double m = rho * mesh.node_area[i];
-      total -= m * gravity_.dot(q.segment<3>(3 * i));
-      if (gradient) gradient->segment<3>(3 * i) -= m * gravity_;
-    }
-  return total;
+  return subtract_gravity(mesh.node_area, law_.parameters().density_kg_m2, gravity_, q, total,
+                          gradient);
 }
 
 void CatmullClarkKL::gradient_parameter_jacobian(const Eigen::VectorXd& q,
@@ -430,28 +300,33 @@ void CatmullClarkKL::gradient_parameter_jacobian(const Eigen::VectorXd& q,
   const int num_k = law_.num_parameters();
   dgradient_dk->setZero(n, num_k);
   const double tau = law_.parameters().thickness_m;
-  std::vector<std::pair<double*, std::size_t>> targets = {
-      {dgradient_dk->data(), static_cast<std::size_t>(n) * static_cast<std::size_t>(num_k)}};
 
-  const FaceBody body = [&](int face, double* const* outputs) {
-    const auto& nodes = mesh.face_nodes[static_cast<size_t>(face)];
-    FaceCoordinates X;
-    for (int k = 0; k < 16; ++k) X.row(k) = q.segment<3>(3 * nodes[static_cast<size_t>(k)]).transpose();
-    FaceParameterJacobian& local = parameter_workspace();  // rows 16 c + k: node k, comp c
-    kirchhoff_love_face_parameter_jacobian(law_, tau, thickness_rule_, face_quadrature(face),
-                                           X, &local);
-    double* out = outputs[0];
-    for (int col = 0; col < num_k; ++col)
-      for (int c = 0; c < 3; ++c)
-        for (int k = 0; k < 16; ++k)
-          out[static_cast<std::size_t>(col) * static_cast<std::size_t>(n) +
-              static_cast<std::size_t>(3 * nodes[static_cast<size_t>(k)] + c)] += local(16 * c + k, col);
+  // Faces of a range share one 48 × num_parameters scratch (rows 16 c + k: node k, comp c).
+  auto add_faces = [&](int begin, int end, const int* faces, double* out) {
+    FaceParameterJacobian local;
+    for (int i = begin; i < end; ++i) {
+      const int face = faces ? faces[i] : i;
+      const std::span<const int> nodes = mesh.face_nodes[face];
+      kirchhoff_love_face_parameter_jacobian(law_, tau, thickness_rule_, face_quadrature(face),
+                                             face_coordinates(q, nodes), &local);
+      for (int col = 0; col < num_k; ++col)
+        scatter_nodal(out + static_cast<std::size_t>(col) * static_cast<std::size_t>(n), nodes,
+                      [&](int k, int c) { return local(16 * c + k, col); });
+    }
   };
-  for_each_face(mesh.colours, num_faces(), options_.assembly, options_.threads, targets, body);
-
+  if (options_.assembly == CatmullClarkKLOptions::Assembly::Colouring) {
+    mesh.runner.run(mesh.colours, [&](std::span<const int> faces) {
+      add_faces(0, static_cast<int>(faces.size()), faces.data(), dgradient_dk->data());
+    });
+  } else {
+    const std::vector<std::pair<double*, std::size_t>> targets = {
+        {dgradient_dk->data(), static_cast<std::size_t>(n) * static_cast<std::size_t>(num_k)}};
+    mesh.runner.run_with_private_copies(num_faces(), targets, [&](int begin, int end, double* const* outputs) {
+      add_faces(begin, end, nullptr, outputs[0]);
+    });
+  }
   // Density enters through gravity only: ∂g_i/∂ρ_A = −(∫N_i dA) g.
-  for (int i = 0; i < num_nodes(); ++i)
-    dgradient_dk->block<3, 1>(3 * i, FlatLayout::kDensity) = -mesh.node_area[i] * gravity_;
+  subtract_gravity_density_column(mesh.node_area, gravity_, FlatLayout::kDensity, dgradient_dk);
 }
 
 std::vector<int> CatmullClarkKL::clamped_nodes(StripEnd end, bool clamp_slope) const {
@@ -500,10 +375,7 @@ SparseMatrix CatmullClarkKL::point_evaluation(const std::vector<Eigen::Vector2d>
 }
 
 Eigen::VectorXd CatmullClarkKL::lumped_mass() const {
-  Eigen::VectorXd mass(num_dofs());
-  const double rho = law_.parameters().density_kg_m2;
-  for (int i = 0; i < num_nodes(); ++i) mass.segment<3>(3 * i).setConstant(rho * mesh_->node_area[i]);
-  return mass;
+  return twill::lumped_mass(mesh_->node_area, law_.parameters().density_kg_m2);
 }
 
 void CatmullClarkKL::surface_mesh(const Eigen::VectorXd& q, Eigen::MatrixXd* vertices,
@@ -542,9 +414,7 @@ std::vector<CatmullClarkKL::PointStrain> CatmullClarkKL::quadrature_strains(
   std::vector<PointStrain> strains;
   strains.reserve(static_cast<size_t>(num_quadrature_points()));
   for (int face = 0; face < num_faces(); ++face) {
-    const auto& nodes = mesh.face_nodes[static_cast<size_t>(face)];
-    FaceCoordinates X;
-    for (int k = 0; k < 16; ++k) X.row(k) = q.segment<3>(3 * nodes[static_cast<size_t>(k)]).transpose();
+    const FaceCoordinates X = face_coordinates(q, mesh.face_nodes[face]);
     const Eigen::Matrix<double, 2, 3>& affine = mesh.face_affine[static_cast<size_t>(face)];
     std::array<Vector6, 256> e;  // points_per_face ≤ 16² (validated)
     kirchhoff_love_face_strains(face_quadrature(face), X, e.data());

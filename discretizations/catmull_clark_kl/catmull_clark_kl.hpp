@@ -33,7 +33,9 @@
 //
 // Threading: faces in parallel with TBB, either in colour classes (faces of one colour share
 // no control point, so they write disjoint entries; results are bitwise deterministic) or
-// with per-thread accumulators summed afterwards (CatmullClarkKLOptions::assembly).
+// with per-thread accumulators summed afterwards (CatmullClarkKLOptions::assembly). The
+// pattern, slot tables, colouring, runner, scatter and gravity are the shared assembly
+// machinery of discretizations/assembly/.
 #include <Eigen/Core>
 #include <cstddef>
 #include <memory>

@@ -1,9 +1,5 @@
 #include "discretizations/triangle_shell/triangle_shell.hpp"
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-#include <tbb/task_arena.h>
-
 #include <Eigen/LU>
 #include <Eigen/SparseCore>
 #include <algorithm>
@@ -16,6 +12,13 @@
 
 #include "core/config.hpp"
 #include "core/input_error.hpp"
+#include "discretizations/assembly/block_scatter.hpp"
+#include "discretizations/assembly/element_nodes.hpp"
+#include "discretizations/assembly/element_schedule.hpp"
+#include "discretizations/assembly/element_scratch.hpp"
+#include "discretizations/assembly/hessian_pattern.hpp"
+#include "discretizations/assembly/nodal_gravity.hpp"
+#include "discretizations/assembly/parallel_runner.hpp"
 #include "discretizations/triangle_shell/constant_strain_triangle.hpp"
 #include "discretizations/triangle_shell/strip_triangulation.hpp"
 
@@ -123,10 +126,9 @@ namespace {
 constexpr int kMinSlabColumns = 3;
 constexpr int kMaxSlabs = 16;
 // Energy-only calls go parallel from this many elements on (below, scheduling costs more).
-constexpr size_t kParallelMinimum = 1024;
-
-constexpr int kTriangleBlockOffsets = 3 * 3 * 3;  // (a, b, column s) per triangle
-constexpr int kHingeBlockOffsets = 4 * 4 * 3;     // per hinge
+constexpr int kParallelMinimum = 1024;
+// Chunk of an independent loop (energy-only elements, angles, faces).
+constexpr int kGrain = 64;
 
 /// The field named at the start of a validation message ("perturbation = …" → "perturbation").
 std::string leading_field(const std::string& message) {
@@ -171,6 +173,26 @@ void validate_parameters(const MaterialParameters& p) {
 
 Eigen::Vector3d vertex(const Eigen::VectorXd& q, int v) { return q.segment<3>(3 * v); }
 
+/// Derivatives of a hinge term W = k g θ² (kg = k g) over the first N/3 vertices of its angle:
+/// all 4 of a hinge, or a clamp hinge's real triangle (its ghost apex is fixed, so only that
+/// 9×9 block enters). ∂W/∂x = 2 kg θ ∇θ is added to `gradient`, ∂²W/∂x² = 2 kg (∇θ∇θᵀ + θ∇²θ)
+/// through the element's slots to `hessian_values` (each when not null).
+template <int N>
+void scatter_squared_angle(double kg, double theta, const Vector12& dtheta, const Matrix12& d2theta,
+                           std::span<const int> vertices, const int* slots, double* gradient,
+                           double* hessian_values) {
+  if (gradient) {
+    const Eigen::Matrix<double, N, 1> local = 2.0 * kg * theta * dtheta.head<N>();
+    scatter_nodal(gradient, vertices, node_major(local));
+  }
+  if (hessian_values) {
+    const Eigen::Matrix<double, N, N> H =
+        2.0 * kg *
+        (dtheta.head<N>() * dtheta.head<N>().transpose() + theta * d2theta.topLeftCorner<N, N>());
+    scatter_hessian(hessian_values, slots, N / 3, node_major_blocks(H));
+  }
+}
+
 }  // namespace
 
 /// A boundary edge on a clamped end line, hinged against a ghost triangle fixed in the rest
@@ -184,6 +206,8 @@ struct ClampHinge {
 };
 
 struct TriangleShell::Impl {
+  explicit Impl(int threads) : runner(threads) {}
+
   StripTriangulation tri;
   std::vector<ClampHinge> clamp_hinges;
   std::vector<CstReference> cst;     // per face
@@ -201,28 +225,29 @@ struct TriangleShell::Impl {
   // Per face and source: the stencil slot of each of the angle's vertices (the fourth is −1
   // for a clamp hinge, whose ghost is fixed).
   std::vector<std::vector<std::array<int, 4>>> source_slots;
-  std::vector<std::vector<int>> stencil_offsets;  // per face: CSC offsets, ((a n + b) 3 + s)
   std::vector<int> face_source_start;             // per face: start in the flat ∂W/∂φ array
   std::vector<std::vector<int>> angle_users;      // per angle: entries of that array, in order
-  // Elements of the bending assembly: angle ids, then #angles + face (slab width covers the
-  // widest face stencil).
-  std::vector<std::vector<int>> bending_slabs;
 
-  SparseMatrix pattern;  // Hessian sparsity, zero values
-  std::vector<std::array<int, kTriangleBlockOffsets>> tri_offsets;
-  std::vector<std::array<int, kHingeBlockOffsets>> hinge_offsets;
-  // Elements by slab of cell columns along x, in a fixed order (triangles, then hinges); an
-  // element id < #faces is a triangle, otherwise hinge id − #faces. Elements of slabs of equal
-  // parity share no vertex, so the even slabs are assembled in parallel, then the odd ones:
-  // two synchronisations per call, no write collisions, and every entry receives its
-  // contributions in the same order for any thread count (bitwise-deterministic results).
-  std::vector<std::vector<int>> slabs;
+  // Assembly elements (element_nodes.hpp), ids: triangles [0, #faces), hinges, clamp hinges
+  // (their real triangle's 3 vertices), then the shape operator's face stencils. The Hessian
+  // pattern holds a full 3×3 block for every vertex pair of an element, with its slot tables.
+  ElementNodes elements;
+  HessianPattern pattern;
+  // Triangles, hinges and clamp hinges by slab of cell columns along x, in a fixed order; the
+  // even slabs run in parallel, then the odd ones (element_schedule.hpp: slabs of equal parity
+  // share no vertex): two synchronisations per call, no write collisions, and every entry
+  // receives its contributions in the same order for any thread count (bitwise-deterministic).
+  ElementSchedule schedule;
+  // Shape-operator bending assembly, element ids relative to #faces: angles [0, #angles) (the
+  // angle ids are the hinges' and clamp hinges' element ids − #faces), then #angles + face
+  // (its stencil); slabs as wide as the widest face stencil.
+  ElementSchedule bending_schedule;
+  int stencil_element(int face) const { return num_elements() + face; }
 
   // Point location: triangles overlapping each cell.
   std::vector<std::vector<int>> cell_triangles;
 
-  mutable tbb::task_arena arena;  // execute() is non-const; the arena holds no model state
-  int threads = 0;
+  ParallelRunner runner;
 
   int num_faces() const { return tri.num_faces(); }
   int num_angles() const { return shape ? shape->num_angles() : 0; }
@@ -234,16 +259,15 @@ struct TriangleShell::Impl {
   }
   /// θ of angle a with optional gradient/Hessian (12; a clamp hinge's ghost block is unused).
   double angle(const Eigen::VectorXd& q, int a, Vector12* gradient, Matrix12* hessian) const;
-  /// θ of every angle (each once: a hinge enters up to ~9 faces), with ∇θ / ∇²θ when given.
+  /// θ of every angle (each once: a hinge enters up to ~9 faces), with ∇θ when given.
   void all_angles(const Eigen::VectorXd& q, std::vector<double>* theta,
-                  std::vector<Vector12>* dtheta, std::vector<Matrix12>* d2theta) const {
+                  std::vector<Vector12>* dtheta) const {
     const auto na = static_cast<size_t>(num_angles());
     theta->resize(na);
     if (dtheta) dtheta->resize(na);
-    if (d2theta) d2theta->resize(na);
     for_each_index(num_angles(), [&](int a) {
       const auto u = static_cast<size_t>(a);
-      (*theta)[u] = angle(q, a, dtheta ? &(*dtheta)[u] : nullptr, d2theta ? &(*d2theta)[u] : nullptr);
+      (*theta)[u] = angle(q, a, dtheta ? &(*dtheta)[u] : nullptr, nullptr);
     });
   }
   /// Length of the flat per-(face, source) array indexed by face_source_start.
@@ -263,57 +287,36 @@ struct TriangleShell::Impl {
     return num_faces() + num_hinges() + static_cast<int>(clamp_hinges.size());
   }
 
-  /// Runs f(element) for every element: even slabs (in parallel), then odd slabs.
+  /// Runs f(element) for every element of `schedule`, conflict-free (see `schedule`).
   template <class F>
-  void for_each_by_slab(F&& f) const {
-    for_each_by_slab(slabs, f);
-  }
-  template <class F>
-  void for_each_by_slab(const std::vector<std::vector<int>>& slab_list, F&& f) const {
-    const size_t half = (slab_list.size() + 1) / 2;
-    for (size_t parity = 0; parity < 2; ++parity) {
-      auto run = [&](size_t k) {
-        const size_t s = 2 * k + parity;
-        if (s < slab_list.size())
-          for (int e : slab_list[s]) f(e);
-      };
-      if (threads == 1 || slab_list.size() < 4) {
-        for (size_t k = 0; k < half; ++k) run(k);
-        continue;
-      }
-      arena.execute([&] {
-        tbb::parallel_for(tbb::blocked_range<size_t>(0, half, 1),
-                          [&](const tbb::blocked_range<size_t>& r) {
-                            for (size_t k = r.begin(); k != r.end(); ++k) run(k);
-                          });
-      });
-    }
+  void for_each_scheduled(const ElementSchedule& schedule_, F&& f) const {
+    runner.run(schedule_, [&](std::span<const int> ids) {
+      for (int id : ids) f(id);
+    });
   }
 
   /// Runs f(i) for i in [0, n), in parallel when worthwhile; f must write only its own slots.
   template <class F>
   void for_each_index(int n, F&& f) const {
-    if (threads == 1 || static_cast<size_t>(n) < kParallelMinimum) {
-      for (int i = 0; i < n; ++i) f(i);
-      return;
-    }
-    arena.execute([&] {
-      tbb::parallel_for(tbb::blocked_range<int>(0, n, 64), [&](const tbb::blocked_range<int>& r) {
-        for (int i = r.begin(); i != r.end(); ++i) f(i);
-      });
+    runner.for_each_range(n, kGrain, kParallelMinimum, [&](int begin, int end) {
+      for (int i = begin; i < end; ++i) f(i);
     });
   }
 };
 
 namespace {
 
-// s_m = E φ of one face (docs §4.7), with φ = −θ over the face's angle sources.
-Eigen::VectorXd measured_rotations(const ShapeOperatorBending::Face& face,
-                                   const std::vector<double>& theta) {
-  Eigen::VectorXd phi(static_cast<Eigen::Index>(face.sources.size()));
+// s_m = E φ of one face (docs §4.7), with φ = −θ over the face's angle sources, in
+// `rotations` (#measured); `phi` is scratch.
+ScratchMatrix::VectorMap measured_rotations(const ShapeOperatorBending::Face& face,
+                                            const std::vector<double>& theta, ScratchMatrix& phi,
+                                            ScratchMatrix& rotations) {
+  ScratchMatrix::VectorMap p = phi.vector(static_cast<Eigen::Index>(face.sources.size()));
   for (size_t j = 0; j < face.sources.size(); ++j)
-    phi[static_cast<Eigen::Index>(j)] = -theta[static_cast<size_t>(face.sources[j])];
-  return face.edge_map * phi;
+    p[static_cast<Eigen::Index>(j)] = -theta[static_cast<size_t>(face.sources[j])];
+  ScratchMatrix::VectorMap s = rotations.vector(face.edge_map.rows());
+  s.noalias() = face.edge_map * p;
+  return s;
 }
 
 /// Slabs of cell columns for elements given by their vertex-column range [first, last]: an
@@ -342,13 +345,8 @@ TriangleShell::TriangleShell(const StripSpec& strip, const MaterialParameters& p
     throw InputError({"", 0, leading_field(error)}, error);
   validate_parameters(parameters);
 
-  impl_ = std::make_unique<Impl>();
+  impl_ = std::make_unique<Impl>(options.threads);
   Impl& m = *impl_;
-  m.threads = options.threads;
-  if (options.threads > 1)
-    m.arena.initialize(options.threads);
-  else
-    m.arena.initialize();
   m.tri = triangulate_strip(strip, options.pattern, options.perturbation, options.seed);
   const StripTriangulation& t = m.tri;
   const int nv = t.num_vertices();
@@ -427,67 +425,15 @@ TriangleShell::TriangleShell(const StripSpec& strip, const MaterialParameters& p
     }
   }
 
-  // Hessian pattern: full 3×3 blocks for every vertex pair of a triangle, a hinge or a face's
-  // bending stencil. Pairs are deduplicated first (face stencils overlap heavily).
-  std::vector<long long> pairs;
-  auto add_blocks = [&](const int* v, int n) {
-    for (int a = 0; a < n; ++a)
-      for (int b = 0; b < n; ++b) pairs.push_back(static_cast<long long>(v[a]) * nv + v[b]);
-  };
-  for (int f = 0; f < t.num_faces(); ++f) {
-    const std::array<int, 3> v = {t.faces(f, 0), t.faces(f, 1), t.faces(f, 2)};
-    add_blocks(v.data(), 3);
-  }
-  for (const Hinge& h : t.hinges) add_blocks(h.v.data(), 4);
-  for (const std::vector<int>& st : m.stencil) add_blocks(st.data(), static_cast<int>(st.size()));
-  std::sort(pairs.begin(), pairs.end());
-  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
-  std::vector<Eigen::Triplet<double>> triplets;
-  triplets.reserve(9 * pairs.size());
-  for (const long long pair : pairs) {
-    const auto va = static_cast<int>(pair / nv), vb = static_cast<int>(pair % nv);
-    for (int r = 0; r < 3; ++r)
-      for (int s = 0; s < 3; ++s) triplets.emplace_back(3 * va + r, 3 * vb + s, 0.0);
-  }
-  m.pattern.resize(3 * nv, 3 * nv);
-  m.pattern.setFromTriplets(triplets.begin(), triplets.end());
-  m.pattern.makeCompressed();
-  m.pattern.coeffs().setZero();
-  const int* outer = m.pattern.outerIndexPtr();
-  const int* inner = m.pattern.innerIndexPtr();
-  auto offset = [&](int va, int vb, int s) {
-    const int col = 3 * vb + s;
-    const int* begin = inner + outer[col];
-    const int* end = inner + outer[col + 1];
-    const int* it = std::lower_bound(begin, end, 3 * va);
-    assert(it != end && *it == 3 * va && it + 2 < end && it[2] == 3 * va + 2);
-    return static_cast<int>(it - inner);
-  };
-  m.tri_offsets.resize(static_cast<size_t>(t.num_faces()));
+  // Assembly elements and the Hessian pattern: full 3×3 blocks for every vertex pair of a
+  // triangle, a hinge or a face's bending stencil (a clamp hinge's lie in its triangle's).
   for (int f = 0; f < t.num_faces(); ++f)
-    for (int a = 0; a < 3; ++a)
-      for (int b = 0; b < 3; ++b)
-        for (int s = 0; s < 3; ++s)
-          m.tri_offsets[static_cast<size_t>(f)][static_cast<size_t>((a * 3 + b) * 3 + s)] =
-              offset(t.faces(f, a), t.faces(f, b), s);
-  m.hinge_offsets.resize(t.hinges.size());
-  for (size_t h = 0; h < t.hinges.size(); ++h)
-    for (size_t a = 0; a < 4; ++a)
-      for (size_t b = 0; b < 4; ++b)
-        for (int s = 0; s < 3; ++s)
-          m.hinge_offsets[h][(a * 4 + b) * 3 + static_cast<size_t>(s)] =
-              offset(t.hinges[h].v[a], t.hinges[h].v[b], s);
+    m.elements.add(std::array<int, 3>{t.faces(f, 0), t.faces(f, 1), t.faces(f, 2)});
+  for (const Hinge& h : t.hinges) m.elements.add(h.v);
+  for (const ClampHinge& c : m.clamp_hinges) m.elements.add(c.v);
+  for (const std::vector<int>& st : m.stencil) m.elements.add(st);
+  m.pattern = HessianPattern(nv, m.elements);
 
-  m.stencil_offsets.resize(m.stencil.size());
-  for (size_t f = 0; f < m.stencil.size(); ++f) {
-    const std::vector<int>& st = m.stencil[f];
-    const size_t n = st.size();
-    m.stencil_offsets[f].resize(n * n * 3);
-    for (size_t a = 0; a < n; ++a)
-      for (size_t b = 0; b < n; ++b)
-        for (int s = 0; s < 3; ++s)
-          m.stencil_offsets[f][(a * n + b) * 3 + static_cast<size_t>(s)] = offset(st[a], st[b], s);
-  }
   if (m.shape) {
     // Bending assembly elements: angles (a hinge spans ≤ 2 columns), then faces (stencils up
     // to 5 columns on the regular patterns); slabs as wide as the widest.
@@ -504,29 +450,30 @@ TriangleShell::TriangleShell(const StripSpec& strip, const MaterialParameters& p
     };
     for (int a = 0; a < m.num_angles(); ++a) range.push_back(columns_of(m.angle_vertices(a)));
     for (const std::vector<int>& st : m.stencil) range.push_back(columns_of(st));
-    m.bending_slabs = column_slabs(t.cells_along, range);
+    m.bending_schedule = ElementSchedule::alternating(column_slabs(t.cells_along, range));
   }
 
   // Slabs: an element belongs to the slab of its leftmost vertex column.
   {
     const int columns = t.cells_along;
     const int num_slabs = std::clamp(columns / kMinSlabColumns, 1, kMaxSlabs);
-    m.slabs.assign(static_cast<size_t>(num_slabs), {});
+    std::vector<std::vector<int>> slabs(static_cast<size_t>(num_slabs));
     auto slab_of = [&](const auto& vertices) {
       int column = columns;
       for (int v : vertices) column = std::min(column, t.half_column[static_cast<size_t>(v)] / 2);
       return std::min(column * num_slabs / columns, num_slabs - 1);
     };
     for (int f = 0; f < t.num_faces(); ++f)
-      m.slabs[static_cast<size_t>(
-                  slab_of(std::array<int, 3>{t.faces(f, 0), t.faces(f, 1), t.faces(f, 2)}))]
+      slabs[static_cast<size_t>(
+                slab_of(std::array<int, 3>{t.faces(f, 0), t.faces(f, 1), t.faces(f, 2)}))]
           .push_back(f);
     for (int h = 0; h < m.num_hinges(); ++h)
-      m.slabs[static_cast<size_t>(slab_of(t.hinges[static_cast<size_t>(h)].v))].push_back(
+      slabs[static_cast<size_t>(slab_of(t.hinges[static_cast<size_t>(h)].v))].push_back(
           t.num_faces() + h);
     for (size_t c = 0; c < m.clamp_hinges.size(); ++c)
-      m.slabs[static_cast<size_t>(slab_of(m.clamp_hinges[c].v))].push_back(
+      slabs[static_cast<size_t>(slab_of(m.clamp_hinges[c].v))].push_back(
           t.num_faces() + m.num_hinges() + static_cast<int>(c));
+    m.schedule = ElementSchedule::alternating(slabs);
   }
 
   // Point location grid (cells of the unperturbed pattern; perturbed triangles overlap at
@@ -615,7 +562,6 @@ void TriangleShell::set_parameters(const MaterialParameters& parameters) {
 double TriangleShell::energy(const Eigen::VectorXd& q, Eigen::VectorXd* gradient,
                              SparseMatrix* hessian) const {
   const Impl& m = *impl_;
-  const StripTriangulation& t = m.tri;
   assert(q.size() == num_dofs());
   const double tau = law_->parameters().thickness_m;
   const double rho = law_->parameters().density_kg_m2;
@@ -625,111 +571,46 @@ double TriangleShell::energy(const Eigen::VectorXd& q, Eigen::VectorXd* gradient
   std::vector<double> element_energy(static_cast<size_t>(m.num_elements()), 0.0);
 
   if (gradient) gradient->setZero(num_dofs());
-  double* values = nullptr;
-  if (hessian) {
-    const bool same_pattern =
-        hessian->rows() == m.pattern.rows() && hessian->cols() == m.pattern.cols() &&
-        hessian->isCompressed() && hessian->nonZeros() == m.pattern.nonZeros() &&
-        std::equal(m.pattern.outerIndexPtr(), m.pattern.outerIndexPtr() + m.pattern.cols() + 1,
-                   hessian->outerIndexPtr()) &&
-        std::equal(m.pattern.innerIndexPtr(), m.pattern.innerIndexPtr() + m.pattern.nonZeros(),
-                   hessian->innerIndexPtr());
-    if (same_pattern)
-      hessian->coeffs().setZero();
-    else
-      *hessian = m.pattern;
-    values = hessian->valuePtr();
-  }
+  double* const values = hessian ? m.pattern.prepare(hessian) : nullptr;
+  double* const g = gradient ? gradient->data() : nullptr;
 
   auto element = [&](int id) {
     if (id < nf) {
-      const int v[3] = {t.faces(id, 0), t.faces(id, 1), t.faces(id, 2)};
-      Vector9 g;
+      const std::span<const int> v = m.elements[id];
+      Vector9 local_gradient;
       Matrix9 H;
       element_energy[static_cast<size_t>(id)] =
           cst_energy(*law_, tau, m.cst[static_cast<size_t>(id)], vertex(q, v[0]), vertex(q, v[1]),
-                     vertex(q, v[2]), gradient ? &g : nullptr, hessian ? &H : nullptr);
-      if (gradient)
-        for (int a = 0; a < 3; ++a) gradient->segment<3>(3 * v[a]) += g.segment<3>(3 * a);
-      if (hessian) {
-        const auto& off = m.tri_offsets[static_cast<size_t>(id)];
-        for (int a = 0; a < 3; ++a)
-          for (int b = 0; b < 3; ++b)
-            for (int s = 0; s < 3; ++s) {
-              double* dst = values + off[static_cast<size_t>((a * 3 + b) * 3 + s)];
-              for (int r = 0; r < 3; ++r) dst[r] += H(3 * a + r, 3 * b + s);
-            }
-      }
+                     vertex(q, v[2]), gradient ? &local_gradient : nullptr, hessian ? &H : nullptr);
+      if (gradient) scatter_nodal(g, v, node_major(local_gradient));
+      if (hessian) scatter_hessian(values, m.pattern.slots(id), 3, node_major_blocks(H));
       return;
     }
     if (m.shape) return;  // bending: shape_operator_pass below
-    if (id >= nf + nh) {
-      // Clamp hinge: the ghost apex is fixed, so only the 9×9 block of the real triangle's
-      // vertices enters, and it lands on that triangle's blocks of the pattern.
-      const ClampHinge& c = m.clamp_hinges[static_cast<size_t>(id - nf - nh)];
-      const double kg = clamp_k * c.weight;
-      Vector12 dtheta;
-      Matrix12 d2theta;
-      const double theta =
-          dihedral_angle(vertex(q, c.v[0]), vertex(q, c.v[1]), vertex(q, c.v[2]), c.ghost,
-                         (gradient || hessian) ? &dtheta : nullptr, hessian ? &d2theta : nullptr);
-      element_energy[static_cast<size_t>(id)] = kg * theta * theta;
-      if (gradient)
-        for (int a = 0; a < 3; ++a)
-          gradient->segment<3>(3 * c.v[a]) += 2.0 * kg * theta * dtheta.segment<3>(3 * a);
-      if (hessian) {
-        const Matrix9 H = 2.0 * kg *
-                          (dtheta.head<9>() * dtheta.head<9>().transpose() +
-                           theta * d2theta.topLeftCorner<9, 9>());
-        const auto& off = m.tri_offsets[static_cast<size_t>(c.face)];
-        for (int a = 0; a < 3; ++a)
-          for (int b = 0; b < 3; ++b)
-            for (int s = 0; s < 3; ++s) {
-              double* dst =
-                  values + off[static_cast<size_t>((c.local[a] * 3 + c.local[b]) * 3 + s)];
-              for (int r = 0; r < 3; ++r) dst[r] += H(3 * a + r, 3 * b + s);
-            }
-      }
-      return;
-    }
-    const int h = id - nf;
-    const auto hu = static_cast<size_t>(h);
-    const Hinge& hinge = t.hinges[hu];
-    const double kg = hinges_.per_hinge[h] * m.hinge_weight[hu];
+    // Hinge, or clamp hinge (angle id = element id − #faces): W = k g θ².
+    const int a = id - nf;
+    const double kg = a < nh ? hinges_.per_hinge[a] * m.hinge_weight[static_cast<size_t>(a)]
+                             : clamp_k * m.clamp_hinges[static_cast<size_t>(a - nh)].weight;
     Vector12 dtheta;
     Matrix12 d2theta;
-    const double theta = dihedral_angle(
-        vertex(q, hinge.v[0]), vertex(q, hinge.v[1]), vertex(q, hinge.v[2]), vertex(q, hinge.v[3]),
-        (gradient || hessian) ? &dtheta : nullptr, hessian ? &d2theta : nullptr);
+    const double theta = m.angle(q, a, (gradient || hessian) ? &dtheta : nullptr,
+                                 hessian ? &d2theta : nullptr);
     element_energy[static_cast<size_t>(id)] = kg * theta * theta;
-    if (gradient)
-      for (size_t a = 0; a < 4; ++a)
-        gradient->segment<3>(3 * hinge.v[a]) +=
-            2.0 * kg * theta * dtheta.segment<3>(3 * static_cast<int>(a));
-    if (hessian) {
-      const Matrix12 H = 2.0 * kg * (dtheta * dtheta.transpose() + theta * d2theta);
-      const auto& off = m.hinge_offsets[hu];
-      for (int a = 0; a < 4; ++a)
-        for (int b = 0; b < 4; ++b)
-          for (int s = 0; s < 3; ++s) {
-            double* dst = values + off[static_cast<size_t>((a * 4 + b) * 3 + s)];
-            for (int r = 0; r < 3; ++r) dst[r] += H(3 * a + r, 3 * b + s);
-          }
-    }
+    const std::span<const int> v = m.elements[id];
+    if (v.size() == 4)
+      scatter_squared_angle<12>(kg, theta, dtheta, d2theta, v, m.pattern.slots(id), g, values);
+    else
+      scatter_squared_angle<9>(kg, theta, dtheta, d2theta, v, m.pattern.slots(id), g, values);
   };
 
   if (gradient || hessian) {
-    m.for_each_by_slab(element);
-  } else if (m.threads == 1 || element_energy.size() < 4 * kParallelMinimum) {
-    for (int id = 0; id < static_cast<int>(element_energy.size()); ++id) element(id);
+    m.for_each_scheduled(m.schedule, element);
   } else {
     // Energy only: each element writes its own slot, any split is safe.
-    m.arena.execute([&] {
-      tbb::parallel_for(tbb::blocked_range<int>(0, static_cast<int>(element_energy.size()), 64),
-                        [&](const tbb::blocked_range<int>& r) {
-                          for (int id = r.begin(); id != r.end(); ++id) element(id);
-                        });
-    });
+    m.runner.for_each_range(static_cast<int>(element_energy.size()), kGrain, 4 * kParallelMinimum,
+                            [&](int begin, int end) {
+                              for (int id = begin; id < end; ++id) element(id);
+                            });
   }
 
   std::vector<double> face_energy;
@@ -739,12 +620,7 @@ double TriangleShell::energy(const Eigen::VectorXd& q, Eigen::VectorXd* gradient
   double total = 0.0;
   for (double e : element_energy) total += e;
   for (double e : face_energy) total += e;
-  for (int v = 0; v < t.num_vertices(); ++v) {
-    const double mass = rho * m.vertex_area[v];
-    total -= mass * gravity_.dot(vertex(q, v));
-    if (gradient) gradient->segment<3>(3 * v) -= mass * gravity_;
-  }
-  return total;
+  return subtract_gravity(m.vertex_area, rho, gravity_, q, total, gradient);
 }
 
 TriangleShellEnergyParts TriangleShell::energy_parts(const Eigen::VectorXd& q) const {
@@ -831,25 +707,30 @@ void TriangleShell::Impl::shape_operator_pass(const Eigen::VectorXd& q,
   const int nf = static_cast<int>(faces.size());
   const bool derivatives = gradient || hessian_values;
   const auto au = static_cast<size_t>(na);
-  // 1. Every angle once: θ, ∇θ, ∇²θ.
+  // 1. Every angle once: θ and ∇θ (the faces use them). ∇²θ is computed in step 4 where it is
+  //    used, once per angle: storing it for every angle cost 1152 bytes an angle per call.
   std::vector<double> theta;
   std::vector<Vector12> dtheta;
-  std::vector<Matrix12> d2theta;
-  all_angles(q, &theta, derivatives ? &dtheta : nullptr, hessian_values ? &d2theta : nullptr);
+  all_angles(q, &theta, derivatives ? &dtheta : nullptr);
   // 2. Faces: s_m = E φ, W_T = s_mᵀ S s_m, ∂W_T/∂φ = 2 Eᵀ S s_m (φ = −θ).
   face_energy->assign(static_cast<size_t>(nf), 0.0);
   std::vector<double> dW(derivatives ? num_face_sources() : 0, 0.0);
-  for_each_index(nf, [&](int f) {
-    const auto fu = static_cast<size_t>(f);
-    const ShapeOperatorBending::Face& face = faces[fu];
-    if (face.measured.empty()) return;
-    const Eigen::VectorXd rotations = measured_rotations(face, theta);
-    const Eigen::VectorXd Ss = shape_stiffness.form[fu] * rotations;
-    (*face_energy)[fu] = rotations.dot(Ss);
-    if (!derivatives) return;
-    const Eigen::VectorXd d = 2.0 * face.edge_map.transpose() * Ss;
-    for (size_t j = 0; j < face.sources.size(); ++j)
-      dW[static_cast<size_t>(face_source_start[fu]) + j] = d[static_cast<Eigen::Index>(j)];
+  runner.for_each_range(nf, kGrain, kParallelMinimum, [&](int begin, int end) {
+    ScratchMatrix phi, rotations_storage, Ss_storage, d_storage;  // reused by the range's faces
+    for (int f = begin; f < end; ++f) {
+      const auto fu = static_cast<size_t>(f);
+      const ShapeOperatorBending::Face& face = faces[fu];
+      if (face.measured.empty()) continue;
+      const auto rotations = measured_rotations(face, theta, phi, rotations_storage);
+      auto Ss = Ss_storage.vector(rotations.size());
+      Ss.noalias() = shape_stiffness.form[fu] * rotations;
+      (*face_energy)[fu] = rotations.dot(Ss);
+      if (!derivatives) continue;
+      auto d = d_storage.vector(static_cast<Eigen::Index>(face.sources.size()));
+      d.noalias() = 2.0 * face.edge_map.transpose() * Ss;
+      for (size_t j = 0; j < face.sources.size(); ++j)
+        dW[static_cast<size_t>(face_source_start[fu]) + j] = d[static_cast<Eigen::Index>(j)];
+    }
   });
   if (!derivatives) return;
   // 3. ∂Ψ/∂φ_a, summed over the angle's faces in a fixed order.
@@ -860,63 +741,49 @@ void TriangleShell::Impl::shape_operator_pass(const Eigen::VectorXd& q,
     lambda[static_cast<size_t>(a)] = sum;
   });
   // 4. Assembly. Gradient Σ_a λ_a ∂φ_a/∂q; Hessian Σ_a λ_a ∂²φ_a/∂q² (on the hinge's blocks)
-  //    + Σ_T 2 (E ∂φ/∂q)ᵀ S (E ∂φ/∂q) (on the face stencil's blocks).
-  for_each_by_slab(bending_slabs, [&](int id) {
-    if (id < na) {
-      const auto u = static_cast<size_t>(id);
-      const double w = -lambda[u];  // ∂φ/∂q = −∂θ/∂q
-      const std::array<int, 4> v = angle_vertices(id);
-      const int count = v[3] >= 0 ? 4 : 3;
-      if (gradient)
-        for (int i = 0; i < count; ++i)
-          gradient->segment<3>(3 * v[static_cast<size_t>(i)]) += w * dtheta[u].segment<3>(3 * i);
-      if (!hessian_values) return;
-      if (id < num_hinges()) {
-        const auto& off = hinge_offsets[u];
-        for (int a = 0; a < 4; ++a)
-          for (int b = 0; b < 4; ++b)
-            for (int s = 0; s < 3; ++s) {
-              double* dst = hessian_values + off[static_cast<size_t>((a * 4 + b) * 3 + s)];
-              for (int r = 0; r < 3; ++r) dst[r] += w * d2theta[u](3 * a + r, 3 * b + s);
-            }
-      } else {
-        const ClampHinge& c = clamp_hinges[static_cast<size_t>(id - num_hinges())];
-        const auto& off = tri_offsets[static_cast<size_t>(c.face)];
-        for (size_t a = 0; a < 3; ++a)
-          for (size_t b = 0; b < 3; ++b)
-            for (int s = 0; s < 3; ++s) {
-              double* dst = hessian_values +
-                            off[static_cast<size_t>((c.local[a] * 3 + c.local[b]) * 3 + s)];
-              for (int r = 0; r < 3; ++r)
-                dst[r] += w * d2theta[u](3 * static_cast<int>(a) + r, 3 * static_cast<int>(b) + s);
-            }
+  //    + Σ_T 2 (E ∂φ/∂q)ᵀ S (E ∂φ/∂q) (on the face stencil's blocks). A range of elements
+  //    reuses one set of scratch matrices.
+  const int first_angle = num_faces();  // pattern element of angle 0 (element ids above)
+  double* const g = gradient ? gradient->data() : nullptr;
+  runner.run(bending_schedule, [&](std::span<const int> ids) {
+    ScratchMatrix Y_storage, SY_storage, H_storage;
+    for (const int id : ids) {
+      if (id < na) {
+        const auto u = static_cast<size_t>(id);
+        const double w = -lambda[u];  // ∂φ/∂q = −∂θ/∂q
+        const std::span<const int> v = elements[first_angle + id];  // 4, or a clamp hinge's 3
+        if (gradient) scatter_nodal(g, v, [&](int i, int c) { return w * dtheta[u][3 * i + c]; });
+        if (!hessian_values) continue;
+        Vector12 unused;
+        Matrix12 d2theta;
+        angle(q, id, &unused, &d2theta);
+        scatter_hessian(hessian_values, pattern.slots(first_angle + id), static_cast<int>(v.size()),
+                        [&](int a, int r, int b, int s) { return w * d2theta(3 * a + r, 3 * b + s); });
+        continue;
       }
-      return;
+      if (!hessian_values) continue;
+      const auto fu = static_cast<size_t>(id - na);
+      const ShapeOperatorBending::Face& face = faces[fu];
+      if (face.measured.empty()) continue;
+      const auto n = static_cast<Eigen::Index>(stencil[fu].size());
+      auto Y = Y_storage(static_cast<Eigen::Index>(face.measured.size()), 3 * n);
+      Y.setZero();
+      for (size_t j = 0; j < face.sources.size(); ++j) {
+        const auto a = static_cast<size_t>(face.sources[j]);
+        const std::array<int, 4>& slots = source_slots[fu][j];
+        for (int i = 0; i < 4; ++i)
+          if (slots[static_cast<size_t>(i)] >= 0)
+            Y.middleCols<3>(3 * slots[static_cast<size_t>(i)]).noalias() -=
+                face.edge_map.col(static_cast<Eigen::Index>(j)) *
+                dtheta[a].segment<3>(3 * i).transpose();
+      }
+      auto SY = SY_storage(Y.rows(), Y.cols());
+      SY.noalias() = shape_stiffness.form[fu] * Y;
+      auto H = H_storage(3 * n, 3 * n);
+      H.noalias() = 2.0 * Y.transpose() * SY;
+      scatter_hessian(hessian_values, pattern.slots(stencil_element(static_cast<int>(fu))),
+                      static_cast<int>(n), node_major_blocks(H));
     }
-    if (!hessian_values) return;
-    const auto fu = static_cast<size_t>(id - na);
-    const ShapeOperatorBending::Face& face = faces[fu];
-    if (face.measured.empty()) return;
-    const std::vector<int>& st = stencil[fu];
-    const auto n = static_cast<Eigen::Index>(st.size());
-    Eigen::MatrixXd Y = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(face.measured.size()), 3 * n);
-    for (size_t j = 0; j < face.sources.size(); ++j) {
-      const auto a = static_cast<size_t>(face.sources[j]);
-      const std::array<int, 4>& slots = source_slots[fu][j];
-      for (int i = 0; i < 4; ++i)
-        if (slots[static_cast<size_t>(i)] >= 0)
-          Y.middleCols<3>(3 * slots[static_cast<size_t>(i)]).noalias() -=
-              face.edge_map.col(static_cast<Eigen::Index>(j)) *
-              dtheta[a].segment<3>(3 * i).transpose();
-    }
-    const Eigen::MatrixXd H = 2.0 * Y.transpose() * (shape_stiffness.form[fu] * Y);
-    const std::vector<int>& off = stencil_offsets[fu];
-    for (Eigen::Index a = 0; a < n; ++a)
-      for (Eigen::Index b = 0; b < n; ++b)
-        for (int s = 0; s < 3; ++s) {
-          double* dst = hessian_values + off[static_cast<size_t>((a * n + b) * 3 + s)];
-          for (int r = 0; r < 3; ++r) dst[r] += H(3 * a + r, 3 * b + s);
-        }
   });
 }
 
@@ -938,7 +805,6 @@ double TriangleShell::clamp_hinge_stiffness(Eigen::Matrix<double, 1, 5>* derivat
 void TriangleShell::gradient_parameter_jacobian(const Eigen::VectorXd& q,
                                                 Eigen::MatrixXd* dgradient_dk) const {
   const Impl& m = *impl_;
-  const StripTriangulation& t = m.tri;
   const int nk = law_->num_parameters();
   const double tau = law_->parameters().thickness_m;
   const int nf = m.num_faces();
@@ -950,44 +816,42 @@ void TriangleShell::gradient_parameter_jacobian(const Eigen::VectorXd& q,
   const int nh = m.num_hinges();
   Eigen::Matrix<double, 1, 5> clamp_dk;
   clamp_hinge_stiffness(&clamp_dk);
-  m.for_each_by_slab([&](int id) {
+  m.for_each_scheduled(m.schedule, [&](int id) {
     if (id >= nf && m.shape) return;  // shape-operator bending below
+    const std::span<const int> v = m.elements[id];
     if (id >= nf + nh) {
       // ∂(2 k_b g θ ∇θ)/∂p = 2 (∂k_b/∂p) g θ ∇θ, over the real triangle's vertices.
       const ClampHinge& c = m.clamp_hinges[static_cast<size_t>(id - nf - nh)];
       Vector12 dtheta;
       const double theta = dihedral_angle(vertex(q, c.v[0]), vertex(q, c.v[1]),
                                           vertex(q, c.v[2]), c.ghost, &dtheta, nullptr);
-      for (size_t p = 0; p < bending_columns.size(); ++p)
-        for (int a = 0; a < 3; ++a)
-          J.block<3, 1>(3 * c.v[a], bending_columns[p]) +=
-              2.0 * clamp_dk[static_cast<Eigen::Index>(p)] * c.weight * theta *
-              dtheta.segment<3>(3 * a);
+      for (size_t p = 0; p < bending_columns.size(); ++p) {
+        const double scale = 2.0 * clamp_dk[static_cast<Eigen::Index>(p)] * c.weight * theta;
+        scatter_nodal(J.col(bending_columns[p]).data(), v,
+                      [&](int a, int r) { return scale * dtheta[3 * a + r]; });
+      }
       return;
     }
     if (id < nf) {
-      const int v[3] = {t.faces(id, 0), t.faces(id, 1), t.faces(id, 2)};
       const Eigen::Matrix<double, 9, Eigen::Dynamic> local =
           cst_gradient_parameter_jacobian(*law_, tau, m.cst[static_cast<size_t>(id)],
                                           vertex(q, v[0]), vertex(q, v[1]), vertex(q, v[2]));
-      for (int a = 0; a < 3; ++a) J.middleRows<3>(3 * v[a]) += local.middleRows<3>(3 * a);
+      for (Eigen::Index col = 0; col < local.cols(); ++col)
+        scatter_nodal(J.col(col).data(), v, [&](int a, int r) { return local(3 * a + r, col); });
       return;
     }
     const auto hu = static_cast<size_t>(id - nf);
-    const Hinge& hinge = t.hinges[hu];
     Vector12 dtheta;
-    const double theta =
-        dihedral_angle(vertex(q, hinge.v[0]), vertex(q, hinge.v[1]), vertex(q, hinge.v[2]),
-                       vertex(q, hinge.v[3]), &dtheta, nullptr);
+    const double theta = dihedral_angle(vertex(q, v[0]), vertex(q, v[1]), vertex(q, v[2]),
+                                        vertex(q, v[3]), &dtheta, nullptr);
     // ∂(2 k g θ ∇θ)/∂k_param = 2 (∂k/∂param) g θ ∇θ.
     const Vector12 unit = 2.0 * m.hinge_weight[hu] * theta * dtheta;
     const auto he = static_cast<Eigen::Index>(hu);
     for (size_t p = 0; p < bending_columns.size(); ++p) {
       const double dk = hinges_.derivative(he, static_cast<Eigen::Index>(p));
       if (dk == 0.0) continue;
-      for (size_t a = 0; a < 4; ++a)
-        J.block<3, 1>(3 * hinge.v[a], bending_columns[p]) +=
-            dk * unit.segment<3>(3 * static_cast<int>(a));
+      scatter_nodal(J.col(bending_columns[p]).data(), v,
+                    [&](int a, int r) { return dk * unit[3 * a + r]; });
     }
   });
   if (m.shape) {
@@ -997,38 +861,44 @@ void TriangleShell::gradient_parameter_jacobian(const Eigen::VectorXd& q,
     const auto& faces = m.shape->faces();
     std::vector<double> theta;
     std::vector<Vector12> dtheta;
-    m.all_angles(q, &theta, &dtheta, nullptr);
+    m.all_angles(q, &theta, &dtheta);
     std::vector<Eigen::Matrix<double, 1, 5>> dW(m.num_face_sources(),
                                                 Eigen::Matrix<double, 1, 5>::Zero());
-    m.for_each_index(static_cast<int>(faces.size()), [&](int f) {
-      const auto fu = static_cast<size_t>(f);
-      const ShapeOperatorBending::Face& face = faces[fu];
-      if (face.measured.empty()) return;
-      const Eigen::VectorXd rotations = measured_rotations(face, theta);
-      const auto dS = m.shape->form_derivative(f, law_->parameters(), m.shape_stiffness);
-      for (size_t p = 0; p < dS.size(); ++p) {
-        const Eigen::VectorXd d = 2.0 * face.edge_map.transpose() * (dS[p] * rotations);
-        for (size_t j = 0; j < face.sources.size(); ++j)
-          dW[static_cast<size_t>(m.face_source_start[fu]) + j][static_cast<Eigen::Index>(p)] =
-              d[static_cast<Eigen::Index>(j)];
+    m.runner.for_each_range(static_cast<int>(faces.size()), kGrain, kParallelMinimum,
+                            [&](int begin, int end) {
+      ScratchMatrix phi, rotations_storage, dSs_storage, d_storage;  // reused by the range
+      for (int f = begin; f < end; ++f) {
+        const auto fu = static_cast<size_t>(f);
+        const ShapeOperatorBending::Face& face = faces[fu];
+        if (face.measured.empty()) continue;
+        const auto rotations = measured_rotations(face, theta, phi, rotations_storage);
+        const auto dS = m.shape->form_derivative(f, law_->parameters(), m.shape_stiffness);
+        for (size_t p = 0; p < dS.size(); ++p) {
+          auto dSs = dSs_storage.vector(dS[p].rows());
+          dSs.noalias() = dS[p] * rotations;
+          auto d = d_storage.vector(face.edge_map.cols());
+          d.noalias() = 2.0 * face.edge_map.transpose() * dSs;
+          for (size_t j = 0; j < face.sources.size(); ++j)
+            dW[static_cast<size_t>(m.face_source_start[fu]) + j][static_cast<Eigen::Index>(p)] =
+                d[static_cast<Eigen::Index>(j)];
+        }
       }
     });
-    m.for_each_by_slab(m.bending_slabs, [&](int id) {
+    m.for_each_scheduled(m.bending_schedule, [&](int id) {
       if (id >= na) return;
       Eigen::Matrix<double, 1, 5> lambda = Eigen::Matrix<double, 1, 5>::Zero();
       for (int i : m.angle_users[static_cast<size_t>(id)]) lambda += dW[static_cast<size_t>(i)];
-      const std::array<int, 4> v = m.angle_vertices(id);
-      const int count = v[3] >= 0 ? 4 : 3;
-      for (size_t p = 0; p < bending_columns.size(); ++p)
-        for (int i = 0; i < count; ++i)
-          J.block<3, 1>(3 * v[static_cast<size_t>(i)], bending_columns[p]) -=
-              lambda[static_cast<Eigen::Index>(p)] *
-              dtheta[static_cast<size_t>(id)].segment<3>(3 * i);
+      const Vector12& dtheta_a = dtheta[static_cast<size_t>(id)];
+      for (size_t p = 0; p < bending_columns.size(); ++p) {
+        const double l = lambda[static_cast<Eigen::Index>(p)];
+        // −λ ∂θ/∂q added: the same bits as λ ∂θ/∂q subtracted.
+        scatter_nodal(J.col(bending_columns[p]).data(), m.elements[nf + id],
+                      [&](int i, int r) { return -(l * dtheta_a[3 * i + r]); });
+      }
     });
   }
   // Gravity: ∂(−m_i g)/∂ρ_A = −(Σ Ā_T/3) g.
-  for (int v = 0; v < t.num_vertices(); ++v)
-    J.block<3, 1>(3 * v, FlatLayout::kDensity) -= m.vertex_area[v] * gravity_;
+  subtract_gravity_density_column(m.vertex_area, gravity_, FlatLayout::kDensity, dgradient_dk);
 }
 
 std::vector<int> TriangleShell::clamped_nodes(StripEnd end, bool clamp_slope) const {
@@ -1097,10 +967,7 @@ SparseMatrix TriangleShell::point_evaluation(const std::vector<Eigen::Vector2d>&
 
 Eigen::VectorXd TriangleShell::lumped_mass() const {
   const Impl& m = *impl_;
-  Eigen::VectorXd mass(num_dofs());
-  const double rho = law_->parameters().density_kg_m2;
-  for (int v = 0; v < num_nodes(); ++v) mass.segment<3>(3 * v).setConstant(rho * m.vertex_area[v]);
-  return mass;
+  return twill::lumped_mass(m.vertex_area, law_->parameters().density_kg_m2);
 }
 
 void TriangleShell::surface_mesh(const Eigen::VectorXd& q, Eigen::MatrixXd* vertices,
