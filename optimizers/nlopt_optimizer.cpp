@@ -162,8 +162,7 @@ bool NloptOptions::validate(std::string* error) const {
 }
 
 NloptOptimizer::NloptOptimizer(NloptOptions options) : options_(std::move(options)) {
-  std::string error;
-  if (!options_.validate(&error)) throw InputError({"", 0, ""}, "nlopt: " + error);
+  require_valid(options_, "nlopt");
 }
 
 Options NloptOptimizer::resolved_options() const {
