@@ -12,24 +12,13 @@
 #include "core/input_error.hpp"
 #include "core/params_io.hpp"
 #include "core/yaml_reader.hpp"
-#include "discretizations/catmull_clark_kl/register_catmull_clark_kl.hpp"
-#include "discretizations/triangle_shell/register_triangle_shell.hpp"
 #include "fitting/fit_protocol.hpp"
-#include "optimizers/optimizer_factory.hpp"
+#include "tests/support/program_registry.hpp"
 
 namespace twill {
 namespace {
 
-Registry& registry() {
-  static Registry r = [] {
-    Registry reg;
-    register_catmull_clark_kl(reg);
-    register_triangle_shell(reg);
-    register_optimizers(reg);
-    return reg;
-  }();
-  return r;
-}
+const Registry& registry() { return testing::program_registry(); }
 
 // A CI-sized protocol: one coarse level, few points, short cantilever, coarse Δθ search.
 Options coarse_config(const std::vector<std::string>& extra = {}) {
