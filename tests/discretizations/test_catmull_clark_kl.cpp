@@ -197,16 +197,25 @@ double largest_argument_change(const CatmullClarkKL& d, const VectorXd& q1, cons
 }
 
 TEST(CatmullClarkKLOptions, ValidateNamesTheOffendingField) {
-  EXPECT_EQ(CatmullClarkKLOptions{}.validate(), "");
+  std::string error;
+  EXPECT_TRUE(CatmullClarkKLOptions{}.validate(&error)) << error;
   auto message_for = [](auto mutate) {
     CatmullClarkKLOptions o;
     mutate(o);
-    return o.validate();
+    std::string message;
+    EXPECT_FALSE(o.validate(&message));
+    return message;
   };
   EXPECT_NE(message_for([](auto& o) { o.gauss_points_per_direction = 0; }).find("gauss_points_per_direction"), std::string::npos);
   EXPECT_NE(message_for([](auto& o) { o.thickness_points = 1; }).find("thickness_points"), std::string::npos);
   EXPECT_NE(message_for([](auto& o) { o.threads = -1; }).find("threads"), std::string::npos);
   EXPECT_NE(message_for([](auto& o) { o.surface_samples_per_face = 0; }).find("surface_samples_per_face"), std::string::npos);
+  // The cross-field rule (validate() itself, not a binding's range).
+  EXPECT_EQ(message_for([](auto& o) {
+              o.gauss_points_per_direction = 1;
+              o.fibre_strain = FibreStrain::FaceLinear;
+            }).rfind("gauss_points_per_direction must be >= 2 for fibre_strain=face-linear", 0),
+            0u);
   CatmullClarkKLOptions bad;
   bad.thickness_points = 1;
   try {
