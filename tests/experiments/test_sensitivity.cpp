@@ -16,21 +16,18 @@
 
 #include "core/params_io.hpp"
 #include "core/sensitivity.hpp"
-#include "discretizations/catmull_clark_kl/catmull_clark_kl.hpp"
-#include "discretizations/triangle_shell/triangle_shell.hpp"
+#include "core/discretization_registry.hpp"
 #include "experiments/cantilever_test.hpp"
 #include "experiments/tensile_test.hpp"
+#include "tests/support/program_registry.hpp"
 
 namespace twill {
 namespace {
 
+/// The registered discretisation `name` at its defaults.
 DiscretizationFactory factory_for(const std::string& name) {
-  if (name == "catmull-clark-kl")
-    return [](const StripSpec& s, const MaterialParameters& p) -> std::unique_ptr<Discretization> {
-      return std::make_unique<CatmullClarkKL>(s, p);
-    };
-  return [](const StripSpec& s, const MaterialParameters& p) -> std::unique_ptr<Discretization> {
-    return std::make_unique<TriangleShell>(s, p);
+  return [name](const StripSpec& s, const MaterialParameters& p) {
+    return testing::create_registered<DiscretizationFactories>(registry_category::kDiscretization, name, {}, s, p);
   };
 }
 
@@ -187,8 +184,8 @@ TEST_P(TensileSensitivity, AngleDerivativeMatchesFiniteDifferencesOfResolves) {
 }
 
 INSTANTIATE_TEST_SUITE_P(
-    BothDiscretizations, TensileSensitivity,
-    ::testing::Combine(::testing::Values("catmull-clark-kl", "triangle-shell"),
+    EveryDiscretization, TensileSensitivity,
+    ::testing::Combine(::testing::ValuesIn(testing::registered_names(registry_category::kDiscretization)),
                        ::testing::Values(90.0, 45.0)),
     [](const auto& param_info) {
       std::string n = std::get<0>(param_info.param) + "_" +
@@ -251,8 +248,8 @@ TEST_P(ChordAngleSensitivity, MatchesFiniteDifferencesOfResolves) {
   EXPECT_GE(c.counted, c.total * 3 / 4);
 }
 
-INSTANTIATE_TEST_SUITE_P(BothDiscretizations, ChordAngleSensitivity,
-                         ::testing::Values("catmull-clark-kl", "triangle-shell"),
+INSTANTIATE_TEST_SUITE_P(EveryDiscretization, ChordAngleSensitivity,
+                         ::testing::ValuesIn(testing::registered_names(registry_category::kDiscretization)),
                          [](const auto& param_info) {
                            std::string n = param_info.param;
                            for (char& ch : n)
