@@ -39,7 +39,7 @@ double peak_memory_mb() {
 
 struct BenchArgs {
   std::string reference;  // folder with params.yaml and tensile-<label>.csv
-  std::vector<std::string> discretizations = {"catmull-clark-kl", "triangle-shell"};
+  std::vector<std::string> discretizations;  ///< empty: every registered discretization
   std::vector<std::string> resolutions = {"8x12", "16x24", "32x48"};
   std::vector<std::string> labels = {"warp", "bias"};
   std::vector<std::string> options;  // key=value, applied where the schema has the key
@@ -84,7 +84,8 @@ void add_bench_command(CLI::App& app, Context& context) {
                   "folder with params.yaml and tensile-<label>.csv (e.g. ../shared/data/reference/canvas)")
       ->required()
       ->check(CLI::ExistingDirectory);
-  cmd->add_option("--discretization", args->discretizations, "registered names (repeatable)");
+  cmd->add_option("--discretization", args->discretizations,
+                  "registered names (repeatable; default: every registered discretization)");
   cmd->add_option("--resolution", args->resolutions, "NxM (repeatable)");
   cmd->add_option("--label", args->labels, "reference curves to run (warp, weft, bias, a22.5, a67.5)");
   cmd->add_option("--option", args->options,
@@ -95,6 +96,8 @@ void add_bench_command(CLI::App& app, Context& context) {
     const std::filesystem::path folder(args->reference);
     const MaterialParameters p = read_params_file((folder / "params.yaml").string(), &context.registry);
     auto& category = context.registry.category<DiscretizationFactories>(registry_category::kDiscretization);
+    if (args->discretizations.empty())
+      for (const auto& entry : category.entries()) args->discretizations.push_back(entry.name);
     std::map<std::string, int> used;
     std::map<std::string, Options> options;
     for (const std::string& name : args->discretizations)

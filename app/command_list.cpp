@@ -1,5 +1,7 @@
 // `twill list [CATEGORY]`: what is registered, per category, with each implementation's
 // one-line description and option schema (name, type, default, constraint, doc).
+// `twill list --names CATEGORY`: the registered names only, one per line in registration
+// order (machine-readable, for scripts that run every registered implementation).
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -49,8 +51,12 @@ void print_category(std::ostream& out, const Context& context, const std::string
 void add_list_command(CLI::App& app, Context& context) {
   auto* cmd = app.add_subcommand("list", "List every registered implementation per category, with its options");
   auto category = std::make_shared<std::string>();
+  auto names_only = std::make_shared<bool>(false);
   cmd->add_option("category", *category, "Only this category (discretization, optimizer, experiment, effect)");
-  cmd->callback([&context, category] {
+  cmd->add_flag("--names", *names_only, "Print only the names of CATEGORY, one per line");
+  cmd->callback([&context, category, names_only] {
+    if (*names_only && category->empty())
+      throw InputError({"command line", 0, "--names"}, "--names needs a CATEGORY");
     const auto names = context.registry.category_names();
     if (!category->empty()) {
       if (std::find(names.begin(), names.end(), *category) == names.end()) {
@@ -58,7 +64,12 @@ void add_list_command(CLI::App& app, Context& context) {
         for (const auto& n : names) known += (known.empty() ? "" : ", ") + n;
         throw InputError({"command line", 0, "category"}, "unknown category '" + *category + "' (known: " + known + ")");
       }
-      print_category(std::cout, context, *category);
+      if (*names_only) {
+        if (const RegistryCategory* found = context.registry.find_category(*category))
+          for (const auto& entry : found->entries()) std::cout << entry.name << "\n";
+      } else {
+        print_category(std::cout, context, *category);
+      }
       return;
     }
     for (std::size_t i = 0; i < names.size(); ++i) {

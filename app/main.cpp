@@ -1,6 +1,6 @@
 // twill: fabric tests -> simulation-ready cloth parameters (Clyde, Teran & Tamstorf, SCA 2017).
 //
-// main() builds the one Registry, registers every module, adds one subcommand per
+// main() builds the one Registry, registers every module (app/program_registry.cpp), adds one subcommand per
 // command_<name>.cpp, and turns errors into `twill: error: <message>` with an exit status:
 // 0 success, 1 failure, 2 bad input (InputError or a malformed command line).
 #include <CLI/CLI.hpp>
@@ -9,11 +9,7 @@
 
 #include "app/commands.hpp"
 #include "core/input_error.hpp"
-#include "discretizations/catmull_clark_kl/register_catmull_clark_kl.hpp"
-#include "discretizations/triangle_shell/register_triangle_shell.hpp"
-#include "effects/register_effects.hpp"
-#include "experiments/register_experiments.hpp"
-#include "optimizers/optimizer_factory.hpp"
+#include "app/program_registry.hpp"
 
 namespace {
 
@@ -37,13 +33,7 @@ int main(int argc, char** argv) {
                "(Clyde, Teran & Tamstorf, \"Modeling and data-driven parameter estimation for woven fabrics\", SCA 2017)",
                "twill"};
   try {
-    // ---- Registration: one call per module (core/registry.hpp says how to write one) ------
-    twill::register_catmull_clark_kl(context.registry);
-    twill::register_triangle_shell(context.registry);
-    twill::register_optimizers(context.registry);
-    twill::register_experiments(context.registry);
-    twill::register_effects(context.registry);
-    // -----------------------------------------------------------------------------------------
+    twill::register_program(context.registry);
 
     app.set_version_flag("--version", std::string(TWILL_VERSION));
     app.require_subcommand(1);

@@ -257,6 +257,11 @@ struct Override {
       case OptionType::Component: return apply_to_component(std::get<ComponentChoice>(slot), i);
       case OptionType::ComponentList: {
         auto& list = std::get<std::vector<ComponentChoice>>(slot);
+        if (!seg.index && last) {  // the whole list, as YAML: effects=[misalignment, {name: x, k: 1}]
+          const YamlValue parsed = load_yaml_string(text, kOverrideSource);
+          slot = resolve_value(*spec, YamlValue(parsed.node(), kOverrideSource, path_to(i)), registry);
+          return;
+        }
         if (!seg.index) throw error(i, "is a list of components; address one as " + seg.name + "[i]");
         if (*seg.index >= list.size())
           throw error(i, "has " + std::to_string(list.size()) + " entries; index " + std::to_string(*seg.index) +

@@ -214,7 +214,7 @@ Options read_config_file(const std::string& path, const OptionSchema& schema, co
 /// Applies one `--set key.path=value` override to a resolved config, with the same type,
 /// range and choice checks as a file. Key paths use dots for sections and components and
 /// [i] for component lists: `solver.tolerance=1e-10`, `optimizer.max_iterations=20`,
-/// `effects[0].strength=0.2`. Values are YAML: `true`, `3`, `[0.1, 0.2]`; strings are taken
+/// `effects[0].strength=0.2`; a whole component list is set as YAML: `effects=[misalignment]`. Values are YAML: `true`, `3`, `[0.1, 0.2]`; strings are taken
 /// verbatim. Setting a component's name (`optimizer=gauss-newton` or `optimizer.name=...`)
 /// switches the implementation and resets its options to that implementation's defaults
 /// (so give the name before its options). Errors are InputErrors with file "--set".

@@ -46,6 +46,16 @@ const RegistryCategory* Registry::find_category(const std::string& name) const {
   return it == categories_.end() ? nullptr : it->second.get();
 }
 
+ComponentChoice Registry::choice(const std::string& category, const std::string& name,
+                                 const std::vector<std::string>& overrides) const {
+  const RegistryCategory* found = find_category(category);
+  if (!found) throw InputError({}, "unknown " + category + " '" + name + "' (known: none registered)");
+  const OptionSchema& schema = found->at(name).options;
+  ComponentChoice out{category, name, default_options(schema, this)};
+  apply_overrides(out.options, schema, this, overrides);
+  return out;
+}
+
 std::vector<std::string> Registry::category_names() const {
   std::vector<std::string> out(kStandardCategories.begin(), kStandardCategories.end());
   out.insert(out.end(), extra_order_.begin(), extra_order_.end());

@@ -7,7 +7,8 @@
 // InputError that lists the known names. `twill list` prints the whole registry.
 //
 // No globals, no static-initialisation tricks: the program builds one Registry and calls plain
-// registration functions, one per module, so what is registered is visible in main.cpp.
+// registration functions, one per module, so what is registered is visible in one place
+// (app/program_registry.cpp).
 //
 // ---- How to register your implementation --------------------------------------------------
 //
@@ -22,22 +23,28 @@
 //    Every factory of the category receives `const Options&` (already validated against the
 //    implementation's schema, defaults filled in) followed by the Args... of the alias.
 //
-// 2. The implementation's module provides one function (declared in its header):
+// 2. The implementation declares its options once, as a typed struct and its bindings
+//    (core/option_binding.hpp: name, type, default from the struct, range or choices, doc),
+//    and its module provides one function (declared in its header) that registers it:
 //
+//        OptionBindings<CatmullClarkKLOptions> catmull_clark_kl_option_bindings() {
+//          return {integer_option<CatmullClarkKLOptions>("thickness_points",
+//                      &CatmullClarkKLOptions::thickness_points, "Gauss points through τ", in_range(2, 64)),
+//                  …};
+//        }
 //        void register_catmull_clark_kl(Registry& registry) {
-//          OptionSchema options;
-//          options.add_int("quadrature_points", 4, "Gauss points per face edge (paper: 4)").range(1, 8);
-//          options.add_bool("clamp_slope", true, "also clamp the tangent plane at the jaws");
 //          registry.category<DiscretizationFactories>(registry_category::kDiscretization)
-//              .add("catmull-clark-kl", "Kirchhoff–Love shell on Catmull–Clark limit surfaces",
-//                   std::move(options),
-//                   [](const Options& o, const StripSpec& strip) -> std::unique_ptr<Discretization> {
-//                     return std::make_unique<CatmullClarkKL>(strip, o.get_int("quadrature_points"),
-//                                                             o.get_bool("clamp_slope"));
-//                   });
+//              .add_bound<CatmullClarkKL>("catmull-clark-kl", "Kirchhoff–Love shell on Catmull–Clark limit surfaces",
+//                                         catmull_clark_kl_option_bindings());
 //        }
 //
-// 3. The lead adds `register_catmull_clark_kl(registry);` in app/main.cpp (marked spot).
+//    add_bound builds the schema from the bindings and a factory that calls
+//    CatmullClarkKL(strip, parameters, options_from(bindings, resolved)). A factory may also
+//    be written by hand with add(name, description, schema, factory).
+//
+// 3. The lead adds `register_catmull_clark_kl(registry);` in app/program_registry.cpp, which
+//    the program and the registry-driven tests share (tests/discretizations/
+//    test_every_discretization.cpp then checks the new part's derivatives without new code).
 //
 // 4. Users create instances from a config's component choice (config.hpp), or by name:
 //
@@ -59,6 +66,7 @@
 
 #include "core/config.hpp"
 #include "core/input_error.hpp"
+#include "core/option_binding.hpp"
 
 namespace twill {
 
@@ -120,6 +128,19 @@ class FactoryCategory final : public RegistryCategory {
     return *this;
   }
 
+  /// Registers `Product`, whose options are the typed struct `Struct` declared by `bindings`
+  /// (option_binding.hpp): the schema comes from the bindings, and the factory builds
+  /// Product(args..., options_from(bindings, options)), so schema and validation agree.
+  template <class Product, class Struct>
+  FactoryCategory& add_bound(std::string name, std::string description, OptionBindings<Struct> bindings) {
+    OptionSchema schema = option_schema(bindings);
+    Factory factory = [bindings = std::move(bindings), owner = name](const Options& options,
+                                                                     Args... args) -> std::unique_ptr<Base> {
+      return std::make_unique<Product>(std::forward<Args>(args)..., options_from(bindings, options, owner));
+    };
+    return add(std::move(name), std::move(description), std::move(schema), std::move(factory));
+  }
+
   /// Creates `name` with resolved `options` (from a config, or default_options()).
   std::unique_ptr<Base> create(const std::string& name, const Options& options, Args... args) const {
     const RegistryEntry& entry = at(name);  // InputError listing the known names
@@ -170,6 +191,13 @@ class Registry {
     if (!found) throw InputError({}, "unknown " + name + " '" + choice.name + "' (known: none registered)");
     return checked_cast<const Category>(*found).create(choice, std::forward<CallArgs>(args)...);
   }
+
+  /// A choice of `name` in `category` at its defaults with `--set`-style overrides applied
+  /// ("c2=0.5", "algorithm=LN_BOBYQA"), checked like a config file: an unknown name lists the
+  /// known ones; an unknown key, a wrong type or an out-of-range value names the key
+  /// (config.hpp's apply_override). Pass it to create().
+  ComponentChoice choice(const std::string& category, const std::string& name,
+                         const std::vector<std::string>& overrides = {}) const;
 
   /// The untyped category, or nullptr when nothing was registered under that name.
   const RegistryCategory* find_category(const std::string& name) const;

@@ -5,11 +5,18 @@
 
 namespace twill {
 
-OptionSchema Misalignment::schema() {
-  OptionSchema schema;
-  schema.add_double("spread_deg", 0.0, "RMS of the strips' cutting-angle offsets (offsets ~ N(0, spread²))")
-      .range(0.0, kMaxOffsetDeg);
-  return schema;
+OptionBindings<MisalignmentOptions> misalignment_bindings() {
+  return {real_option<MisalignmentOptions>("spread_deg", &MisalignmentOptions::spread_deg,
+                                           "RMS of the strips' cutting-angle offsets (offsets ~ N(0, spread²))",
+                                           in_range(0.0, Misalignment::kMaxOffsetDeg))};
+}
+
+bool MisalignmentOptions::validate(std::string* error) const {
+  return check_options(misalignment_bindings(), *this, error);
+}
+
+Misalignment::Misalignment(const MisalignmentOptions& options) : spread_deg_(options.spread_deg) {
+  require_valid(options, kName);
 }
 
 std::string Misalignment::missing_data(const Dataset& dataset) const {

@@ -13,9 +13,17 @@
 //   observables' derivative in Δθ is the experiment's dF/dθ (Eq. 6, tensile_strip.hpp).
 // Data: repeats at some tensile angle (a spread needs at least two strips cut alike).
 // Estimate from runs: spread = √(mean Δθ²) over the runs' fitted offsets.
+#include "core/option_binding.hpp"
 #include "effects/effect.hpp"
 
 namespace twill {
+
+/// The model parameters (the registered options, declared once in misalignment_bindings()).
+struct MisalignmentOptions {
+  double spread_deg = 0.0;
+  bool validate(std::string* error) const;
+};
+OptionBindings<MisalignmentOptions> misalignment_bindings();
 
 class Misalignment final : public Effect {
  public:
@@ -25,9 +33,10 @@ class Misalignment final : public Effect {
   static constexpr double kMaxOffsetDeg = 10.0;
   static constexpr const char* kName = "misalignment";
 
-  explicit Misalignment(double spread_deg) : spread_deg_(spread_deg) {}
+  /// Throws InputError naming the option when `options` violates its bounds.
+  explicit Misalignment(const MisalignmentOptions& options);
   /// The registered schema (the model parameters).
-  static OptionSchema schema();
+  static OptionSchema schema() { return option_schema(misalignment_bindings()); }
 
   double spread_deg() const { return spread_deg_; }
   std::string missing_data(const Dataset& dataset) const override;

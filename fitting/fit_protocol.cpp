@@ -62,8 +62,8 @@ OptionSchema fit_config_schema() {
   stop.add_double("refine_function_tolerance", 1e-4,
                   "relative change of the objective per iteration at each refit of the ladder").at_least(0.0);
   OptionSchema& init = s.add_section("initial_guess", "uniform-strain initial guesses (paper §5.3)");
-  init.add_string("optimizer", "gauss-newton", "optimiser of the uniform-strain fits")
-      .choices({"bfgs", "gauss-newton", "ipopt", "nlopt"});
+  init.add_component("optimizer", registry_category::kOptimizer, "gauss-newton",
+                     "optimiser of the uniform-strain fits (its stopping limits are the stages')");
   init.add_bool("enabled", true, "fit the uniform-strain model first (false: slopes only)");
   OptionSchema& rep = s.add_section("repeats", "which repeated runs are fitted (paper §6.4)");
   rep.add_string("rule", "paper", "paper: largest forces for warp/weft, one random run for others")
@@ -422,7 +422,7 @@ class Protocol {
                      p.a11_Pa, p.a22_Pa, p.G12_Pa, 1e3 * tau));
     if (!config_.get_section("initial_guess").get_bool("enabled")) return;
 
-    const std::string name = config_.get_section("initial_guess").get_string("optimizer");
+    const ComponentChoice& choice = config_.get_section("initial_guess").get_component("optimizer");
     for (const Stage& stage : stages()) {
       const auto runs = runs_for(stage.angle_deg);
       if (runs.empty()) continue;
@@ -432,7 +432,7 @@ class Protocol {
             run_label(*d), setup_for(*d->test, 0), d->extension_mm, d->force_N));
       ParameterMap map(p, {stage.stiffness, stage.curve + ".*"});
       FitObjective objective(map, predictors);
-      std::unique_ptr<Optimizer> optimizer = make_stage_optimizer(name);
+      std::unique_ptr<Optimizer> optimizer = make_stage_optimizer(choice);
       const OptimizerResult r = optimizer->minimize(objective, map.initial_x());
       if (std::isfinite(r.summary.final_value)) p = map.parameters(r.x);
       objective.evaluate(r.x, nullptr);
@@ -443,7 +443,7 @@ class Protocol {
         report_.initial_guess.push_back(g);
       }
       say(0, fmt::format("initial guess {}: uniform-strain fit {} ({}), error {:.2f} %", stage.name,
-                         name, to_string(r.status), 100 * mean_error(objective, runs.size())));
+                         choice.name, to_string(r.status), 100 * mean_error(objective, runs.size())));
     }
     // Agreement of the uniform-strain model with the full solve at the guess (coarsest level).
     size_t k = 0;
@@ -469,15 +469,11 @@ class Protocol {
     return mean(e);
   }
 
-  std::unique_ptr<Optimizer> make_stage_optimizer(const std::string& name_override = "",
-                                                  bool refine = false) const {
-    ComponentChoice choice = config_.get_component("optimizer");
-    if (!name_override.empty() && name_override != choice.name) {
-      choice.name = name_override;
-      const RegistryCategory* category = registry_.find_category(registry_category::kOptimizer);
-      if (!category) throw std::logic_error("no optimizer category registered");
-      choice.options = default_options(category->at(name_override).options, nullptr);
-    }
+  /// The config's optimiser (or `chosen`, e.g. the initial guess's) with the stages' stopping limits.
+  std::unique_ptr<Optimizer> make_stage_optimizer(bool refine = false) const {
+    return make_stage_optimizer(config_.get_component("optimizer"), refine);
+  }
+  std::unique_ptr<Optimizer> make_stage_optimizer(ComponentChoice choice, bool refine = false) const {
     const Options& stop = config_.get_section("stopping");
     choice.options.set("max_iterations", stop.get_int(refine ? "refine_max_iterations" : "max_iterations"));
     choice.options.set("max_evaluations", stop.get_int("max_evaluations"));
@@ -536,7 +532,7 @@ class Protocol {
                          resolution, degree, it.iteration, it.value, it.gradient_norm,
                          objective.equilibrium_solves()));
     });
-    std::unique_ptr<Optimizer> optimizer = make_stage_optimizer("", refining);
+    std::unique_ptr<Optimizer> optimizer = make_stage_optimizer(refining);
     const OptimizerResult r = optimizer->minimize(objective, map.initial_x());
     StageResult out;
     if (!std::isfinite(r.summary.final_value)) {
@@ -584,8 +580,9 @@ class Protocol {
                                                                      d->extension_mm, d->force_N));
         ParameterMap map(trial, {stage.curve + ".*"});
         FitObjective objective(map, uniform);
-        const OptimizerResult r = make_stage_optimizer(
-            config_.get_section("initial_guess").get_string("optimizer"))->minimize(objective, map.initial_x());
+        const OptimizerResult r =
+            make_stage_optimizer(config_.get_section("initial_guess").get_component("optimizer"))
+                ->minimize(objective, map.initial_x());
         if (std::isfinite(r.summary.final_value)) {
           try {
             trial = map.parameters(r.x);

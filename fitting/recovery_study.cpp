@@ -5,7 +5,7 @@
 #include "core/discretization_registry.hpp"
 #include "core/fit_objective.hpp"
 #include "experiments/predictors.hpp"
-#include "optimizers/optimizer_factory.hpp"
+#include "optimizers/optimizer.hpp"
 
 namespace twill {
 
@@ -30,9 +30,7 @@ RecoveryResult run_recovery(const RecoveryCase& c, const MaterialParameters& tru
   MaterialParameters truth = truth_base;
   (warp ? truth.eta1 : truth.eta4) = curve_of_degree(c.degree);
 
-  const ComponentChoice disc{registry_category::kDiscretization, c.discretization,
-                             default_options(registry.find_category(registry_category::kDiscretization)
-                                                 ->at(c.discretization).options, nullptr)};
+  const ComponentChoice disc = registry.choice(registry_category::kDiscretization, c.discretization);
   const DiscretizationFactory factory = [&registry, disc](const StripSpec& s, const MaterialParameters& p) {
     return registry.create<DiscretizationFactories>(registry_category::kDiscretization, disc, s, p);
   };
@@ -64,8 +62,9 @@ RecoveryResult run_recovery(const RecoveryCase& c, const MaterialParameters& tru
   auto predictor = std::make_shared<TensilePredictor>(c.test + " (simulated)", setup, factory, start,
                                                       extensions, forces);
   FitObjective objective(map, {predictor});
-  const std::unique_ptr<Optimizer> optimizer =
-      make_optimizer(c.optimizer, optimizer_options(c.optimizer, c.optimizer_overrides));
+  const std::unique_ptr<Optimizer> optimizer = registry.create<OptimizerFactories>(
+      registry_category::kOptimizer,
+      registry.choice(registry_category::kOptimizer, c.optimizer, c.optimizer_overrides));
   const OptimizerResult r = optimizer->minimize(objective, map.initial_x());
 
   RecoveryResult out;

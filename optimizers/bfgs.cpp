@@ -84,8 +84,7 @@ bool bfgs_update(Eigen::MatrixXd& H, const Eigen::VectorXd& s, const Eigen::Vect
 }
 
 Bfgs::Bfgs(BfgsOptions options) : options_(std::move(options)) {
-  std::string error;
-  if (!options_.validate(&error)) throw InputError({"", 0, ""}, "bfgs: " + error);
+  require_valid(options_, "bfgs");
 }
 
 Options Bfgs::resolved_options() const { return options_of(bfgs_option_bindings(), options_); }

@@ -43,7 +43,7 @@ struct BfgsOptions : OptimizerOptions {
   LineSearchOptions line_search() const;
 };
 
-/// The option schema (common options first), for make_optimizer and the registry.
+/// The option bindings (common options first): schema, validation and registration.
 std::vector<OptionBinding<BfgsOptions>> bfgs_option_bindings();
 
 /// N&W eq. 6.17 on the n × n inverse Hessian H. Returns false and leaves H unchanged when

@@ -85,8 +85,7 @@ bool GaussNewtonOptions::validate(std::string* error) const {
 }
 
 GaussNewton::GaussNewton(GaussNewtonOptions options) : options_(std::move(options)) {
-  std::string error;
-  if (!options_.validate(&error)) throw InputError({"", 0, ""}, "gauss-newton: " + error);
+  require_valid(options_, "gauss-newton");
 }
 
 Options GaussNewton::resolved_options() const {

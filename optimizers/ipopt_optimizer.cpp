@@ -293,8 +293,7 @@ bool IpoptOptions::validate(std::string* error) const {
 }
 
 IpoptOptimizer::IpoptOptimizer(IpoptOptions options) : options_(std::move(options)) {
-  std::string error;
-  if (!options_.validate(&error)) throw InputError({"", 0, ""}, "ipopt: " + error);
+  require_valid(options_, "ipopt");
 }
 
 Options IpoptOptimizer::resolved_options() const {

@@ -68,6 +68,9 @@ class Objective {
 
  private:
   double evaluate(const std::vector<double>& x, std::vector<double>& gradient) {
+    // A run we stopped gets no further evaluation: LD_TNEWTON_PRECOND_RESTART calls the
+    // objective once more after a forced stop.
+    if (!error_.empty() || stop_) throw nlopt::forced_stop();
     try {
       // NLopt's maxeval may let one more evaluation through (LD_LBFGS does); the budget is a
       // hard cap here, as for every optimiser.
@@ -162,8 +165,7 @@ bool NloptOptions::validate(std::string* error) const {
 }
 
 NloptOptimizer::NloptOptimizer(NloptOptions options) : options_(std::move(options)) {
-  std::string error;
-  if (!options_.validate(&error)) throw InputError({"", 0, ""}, "nlopt: " + error);
+  require_valid(options_, "nlopt");
 }
 
 Options NloptOptimizer::resolved_options() const {

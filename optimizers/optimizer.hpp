@@ -16,9 +16,9 @@
 #include <string>
 #include <vector>
 
+#include "core/option_binding.hpp"
 #include "core/problem.hpp"
 #include "core/registry.hpp"
-#include "optimizers/option_schema.hpp"
 
 namespace twill {
 
@@ -183,7 +183,7 @@ std::optional<std::string> check_convergence(const OptimizerOptions& options, do
 class Optimizer;
 
 /// The registry category of optimisers (core/registry.hpp): a factory receives only its
-/// resolved options. optimizer_factory.hpp's register_optimizers() fills it.
+/// resolved options. register_optimizers.hpp's register_optimizers() fills it.
 using OptimizerFactories = FactoryCategory<Optimizer>;
 
 class Optimizer {

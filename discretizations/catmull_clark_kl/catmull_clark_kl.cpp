@@ -24,28 +24,6 @@ namespace {
 
 using BasisTable = Eigen::Matrix<double, 6, 16>;  // rows as PatchBasis::weights
 
-/// (key, message) of the first invalid option; key empty when all are valid.
-std::pair<std::string, std::string> first_invalid_option(const CatmullClarkKLOptions& o) {
-  auto bad = [](const char* key, const std::string& rule, int value) {
-    return std::pair<std::string, std::string>(
-        key, std::string(key) + " must be " + rule + ", got " + std::to_string(value));
-  };
-  if (o.gauss_points_per_direction < 1 || o.gauss_points_per_direction > 16)
-    return bad("gauss_points_per_direction", "in [1, 16]", o.gauss_points_per_direction);
-  // One point (the mid-surface) would drop the bending energy entirely.
-  if (o.thickness_points < 2 || o.thickness_points > 64)
-    return bad("thickness_points", "in [2, 64] (one point loses all bending)", o.thickness_points);
-  // The linear modes of a projection need two points per direction to have a norm.
-  if (projection_modes(o.fibre_strain) > 1 && o.gauss_points_per_direction < 2)
-    return bad("gauss_points_per_direction",
-               std::string(">= 2 for fibre_strain=") + fibre_strain_name(o.fibre_strain),
-               o.gauss_points_per_direction);
-  if (o.threads < 0) return bad("threads", ">= 0 (0 = TBB's choice)", o.threads);
-  if (o.surface_samples_per_face < 1 || o.surface_samples_per_face > 64)
-    return bad("surface_samples_per_face", "in [1, 64]", o.surface_samples_per_face);
-  return {};
-}
-
 void validate_strip(const StripSpec& strip) {
   auto fail = [](const char* key, const std::string& message) {
     throw InputError(InputLocation{"", 0, key}, message);
@@ -83,7 +61,38 @@ FaceCoordinates face_coordinates(const Eigen::VectorXd& q, std::span<const int> 
 
 }  // namespace
 
-std::string CatmullClarkKLOptions::validate() const { return first_invalid_option(*this).second; }
+OptionBindings<CatmullClarkKLOptions> catmull_clark_kl_option_bindings() {
+  using O = CatmullClarkKLOptions;
+  std::vector<std::pair<std::string, FibreStrain>> fibre_strains;
+  for (const auto& [value, name] : fibre_strain_names()) fibre_strains.emplace_back(name, value);
+  return {
+      integer_option<O>("gauss_points_per_direction", &O::gauss_points_per_direction,
+                        "Gauss points per face direction (paper §6.3: 4x4)", in_range(1, 16)),
+      // One point (the mid-surface) would drop the bending energy entirely.
+      integer_option<O>("thickness_points", &O::thickness_points,
+                        "Gauss-Legendre points through the thickness (one point loses all bending)",
+                        in_range(2, 64)),
+      integer_option<O>("threads", &O::threads, "assembly threads; 0 = TBB's choice", in_range(0, 256)),
+      integer_option<O>("surface_samples_per_face", &O::surface_samples_per_face,
+                        "limit-surface samples per face edge for OBJ output", in_range(1, 64)),
+      enum_option<O>("fibre_strain", &O::fibre_strain, fibre_strains,
+                     "fibre stretches per Gauss point (paper) or L2-projected per face onto "
+                     "constants / linears / bilinears (B-bar against locking; docs/catmull_clark_kl.md 12)"),
+  };
+}
+
+bool CatmullClarkKLOptions::validate(std::string* error) const {
+  if (!check_options(catmull_clark_kl_option_bindings(), *this, error)) return false;
+  // The linear modes of a projection need two points per direction to have a norm.
+  if (projection_modes(fibre_strain) > 1 && gauss_points_per_direction < 2) {
+    if (error)
+      *error = "gauss_points_per_direction must be >= 2 for fibre_strain=" +
+               std::string(fibre_strain_name(fibre_strain)) + ", got " +
+               std::to_string(gauss_points_per_direction);
+    return false;
+  }
+  return true;
+}
 
 struct CatmullClarkKL::Mesh {
   explicit Mesh(int threads) : runner(threads) {}
@@ -120,8 +129,7 @@ CatmullClarkKL::CatmullClarkKL(const StripSpec& strip, const MaterialParameters&
     : strip_(strip), options_(options), law_(parameters) {
   validate_strip(strip);
   validate_parameters(parameters);
-  if (const auto [key, message] = first_invalid_option(options); !key.empty())
-    throw InputError(InputLocation{"", 0, key}, message);
+  require_valid(options, "catmull-clark-kl");
   thickness_rule_ = GaussLegendreRule::make(options.thickness_points);
   basis_ = std::make_unique<LimitSurfaceBasis>(strip.cells_along, strip.cells_across);
 

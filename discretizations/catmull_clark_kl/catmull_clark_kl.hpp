@@ -44,6 +44,7 @@
 
 #include "core/discretization.hpp"
 #include "core/material_law.hpp"
+#include "core/option_binding.hpp"
 #include "core/parameters.hpp"
 #include "discretizations/catmull_clark_kl/gauss_legendre.hpp"
 #include "discretizations/catmull_clark_kl/kirchhoff_love_face.hpp"
@@ -66,14 +67,21 @@ struct CatmullClarkKLOptions {
   /// (docs/catmull_clark_kl.md §12).
   FibreStrain fibre_strain = FibreStrain::FaceMean;
 
-  /// Empty when valid; otherwise names the field and the violated constraint (Ceres style).
-  std::string validate() const;
+  /// Ceres IsValid style: false with the violated constraint in `error` (may be null), the
+  /// field's name first. Ranges come from catmull_clark_kl_option_bindings(); the one
+  /// cross-field rule is here (projections need two Gauss points per direction).
+  bool validate(std::string* error) const;
 };
+
+/// The options of "catmull-clark-kl", each declared once (core/option_binding.hpp): its
+/// registered schema, validate()'s ranges and the struct read from a config all come from here.
+/// `assembly` is not an option (a diagnostic choice for tests).
+OptionBindings<CatmullClarkKLOptions> catmull_clark_kl_option_bindings();
 
 class CatmullClarkKL final : public Discretization {
  public:
   /// Builds the mesh and the whole precomputation. Throws InputError (key = the offending
-  /// field) for an invalid strip, parameters or options.
+  /// field) for an invalid strip, parameters or options (options.validate()).
   CatmullClarkKL(const StripSpec& strip, const MaterialParameters& parameters,
                  const CatmullClarkKLOptions& options = {});
   ~CatmullClarkKL() override;

@@ -34,8 +34,12 @@ std::string to_string(StripEnds ends) {
   return "none";
 }
 
+std::vector<StripEnds> all_strip_ends() {
+  return {StripEnds::None, StripEnds::Start, StripEnds::End, StripEnds::Both};
+}
+
 StripEnds strip_ends_from_string(const std::string& text) {
-  for (StripEnds e : {StripEnds::None, StripEnds::Start, StripEnds::End, StripEnds::Both})
+  for (StripEnds e : all_strip_ends())
     if (to_string(e) == text) return e;
   throw InputError({"", 0, "clamp_hinges"},
                    "unknown strip ends '" + text + "' (known: none, start, end, both)");
@@ -55,67 +59,47 @@ std::string to_string(HingeModel model) {
   return "?";
 }
 
+std::vector<HingeModel> all_hinge_models() {
+  return {HingeModel::ShapeOperator, HingeModel::Directional, HingeModel::Cylinders};
+}
+
 HingeModel hinge_model_from_string(const std::string& text) {
-  for (HingeModel m : {HingeModel::ShapeOperator, HingeModel::Directional, HingeModel::Cylinders})
+  for (HingeModel m : all_hinge_models())
     if (to_string(m) == text) return m;
   throw InputError({"", 0, "hinge_model"}, "unknown hinge model '" + text +
                                                "' (known: shape-operator, directional, cylinders)");
 }
 
-std::string TriangleShellOptions::validate() const {
-  std::ostringstream os;
-  if (!(perturbation >= 0.0 && perturbation < 0.25)) {
-    os << "perturbation = " << perturbation
-       << " is outside [0, 0.25): offsets of a quarter cell can invert triangles";
-    return os.str();
-  }
-  if (threads < 0) {
-    os << "threads = " << threads << " must be >= 0 (0 = TBB's choice)";
-    return os.str();
-  }
-  return {};
+OptionBindings<TriangleShellOptions> triangle_shell_option_bindings() {
+  using O = TriangleShellOptions;
+  std::vector<std::pair<std::string, TrianglePattern>> patterns;
+  for (TrianglePattern p : all_triangle_patterns()) patterns.emplace_back(to_string(p), p);
+  std::vector<std::pair<std::string, StripEnds>> ends;
+  for (StripEnds e : all_strip_ends()) ends.emplace_back(to_string(e), e);
+  std::vector<std::pair<std::string, HingeModel>> models;
+  for (HingeModel m : all_hinge_models()) models.emplace_back(to_string(m), m);
+  return {
+      enum_option<O>("pattern", &O::pattern, patterns, "how each cell is split into triangles"),
+      // Offsets of a quarter cell can invert triangles.
+      real_option<O>("perturbation", &O::perturbation,
+                     "irregular pattern: largest vertex offset as a fraction of the cell size",
+                     [](OptionSpec& s) { s.at_least(0.0).less_than(0.25); }),
+      integer_option<O>("seed", &O::seed, "irregular pattern: random seed"),
+      integer_option<O>("threads", &O::threads, "assembly threads (0 = TBB's choice, 1 = serial)",
+                        at_least(0)),
+      enum_option<O>("clamp_hinges", &O::clamp_hinges, ends,
+                     "ends whose slope clamp is a hinge against the rest plane instead of a rigid "
+                     "first cell column (cantilever: start)"),
+      enum_option<O>("hinge_model", &O::hinge_model, models,
+                     "bending model: shape-operator (per-triangle curvature from the hinge angles "
+                     "with the law's KL bending energy; exact for every uniform curvature, no "
+                     "mesh-scale modes), or hinge energies: directional (plate stiffness across "
+                     "each edge) or cylinders (per class, warp/weft/45° exact, soft diagonal folds)"),
+  };
 }
 
-OptionSchema triangle_shell_option_schema() {
-  const TriangleShellOptions d;
-  OptionSchema schema;
-  std::vector<std::string> names;
-  for (TrianglePattern p : all_triangle_patterns()) names.push_back(to_string(p));
-  schema.add_string("pattern", to_string(d.pattern), "how each cell is split into triangles")
-      .choices(names);
-  schema
-      .add_double("perturbation", d.perturbation,
-                  "irregular pattern: largest vertex offset as a fraction of the cell size")
-      .at_least(0.0)
-      .less_than(0.25);
-  schema.add_int("seed", static_cast<std::int64_t>(d.seed), "irregular pattern: random seed")
-      .at_least(0);
-  schema.add_int("threads", d.threads, "assembly threads (0 = TBB's choice, 1 = serial)")
-      .at_least(0);
-  schema
-      .add_string("clamp_hinges", to_string(d.clamp_hinges),
-                  "ends whose slope clamp is a hinge against the rest plane instead of a rigid "
-                  "first cell column (cantilever: start)")
-      .choices({"none", "start", "end", "both"});
-  schema
-      .add_string("hinge_model", to_string(d.hinge_model),
-                  "bending model: shape-operator (per-triangle curvature from the hinge angles "
-                  "with the law's KL bending energy; exact for every uniform curvature, no "
-                  "mesh-scale modes), or hinge energies: directional (plate stiffness across "
-                  "each edge) or cylinders (per class, warp/weft/45° exact, soft diagonal folds)")
-      .choices({"shape-operator", "directional", "cylinders"});
-  return schema;
-}
-
-TriangleShellOptions triangle_shell_options(const Options& resolved) {
-  TriangleShellOptions o;
-  o.pattern = triangle_pattern_from_string(resolved.get_string("pattern"));
-  o.perturbation = resolved.get_double("perturbation");
-  o.seed = static_cast<std::uint64_t>(resolved.get_int("seed"));
-  o.threads = static_cast<int>(resolved.get_int("threads"));
-  o.clamp_hinges = strip_ends_from_string(resolved.get_string("clamp_hinges"));
-  o.hinge_model = hinge_model_from_string(resolved.get_string("hinge_model"));
-  return o;
+bool TriangleShellOptions::validate(std::string* error) const {
+  return check_options(triangle_shell_option_bindings(), *this, error);
 }
 
 namespace {
@@ -130,10 +114,6 @@ constexpr int kParallelMinimum = 1024;
 // Chunk of an independent loop (energy-only elements, angles, faces).
 constexpr int kGrain = 64;
 
-/// The field named at the start of a validation message ("perturbation = …" → "perturbation").
-std::string leading_field(const std::string& message) {
-  return message.substr(0, message.find(' '));
-}
 
 void validate_strip(const StripSpec& s) {
   auto fail = [](const std::string& key, const std::string& what) {
@@ -341,8 +321,7 @@ TriangleShell::TriangleShell(const StripSpec& strip, const MaterialParameters& p
                              const TriangleShellOptions& options)
     : strip_(strip), options_(options) {
   validate_strip(strip);
-  if (const std::string error = options.validate(); !error.empty())
-    throw InputError({"", 0, leading_field(error)}, error);
+  require_valid(options, "triangle-shell");
   validate_parameters(parameters);
 
   impl_ = std::make_unique<Impl>(options.threads);

@@ -57,19 +57,19 @@
 #include "core/material_law.hpp"
 #include "core/parameters.hpp"
 #include "discretizations/triangle_shell/hinge_bending.hpp"
+#include "core/option_binding.hpp"
 #include "discretizations/triangle_shell/shape_operator_bending.hpp"
 #include "discretizations/triangle_shell/triangle_pattern.hpp"
 
 namespace twill {
 
 struct StripTriangulation;
-class OptionSchema;
-class Options;
 
 /// A subset of the two strip ends (x = 0 and x = length).
 enum class StripEnds { None, Start, End, Both };
 std::string to_string(StripEnds ends);                        // "none", "start", "end", "both"
 StripEnds strip_ends_from_string(const std::string& text);    // throws InputError for others
+std::vector<StripEnds> all_strip_ends();                      ///< the one list, in option order
 bool includes(StripEnds ends, StripEnd end);
 
 /// The bending model (docs/triangle_shell.md §4, §10): how the dihedral angles become energy.
@@ -91,6 +91,7 @@ enum class HingeModel {
 /// "shape-operator", "directional", "cylinders".
 std::string to_string(HingeModel model);
 HingeModel hinge_model_from_string(const std::string& text);  // throws InputError for others
+std::vector<HingeModel> all_hinge_models();                   ///< the one list, in option order
 
 struct TriangleShellOptions {
   /// Mesh pattern (strip_triangulation.hpp). Alternating is the default: with the material
@@ -113,16 +114,15 @@ struct TriangleShellOptions {
   /// comparison (cylinders: soft diagonal folds; directional: the checkerboard mode).
   HingeModel hinge_model = HingeModel::ShapeOperator;
 
-  /// Empty when valid; otherwise names the field and the violated constraint (Ceres style).
-  std::string validate() const;
+  /// Ceres IsValid style: false with the violated constraint in `error` (may be null), the
+  /// field's name first. The ranges are those of triangle_shell_option_bindings().
+  bool validate(std::string* error) const;
 };
 
-/// The option schema under which "triangle-shell" is registered (registry.hpp): pattern,
-/// perturbation, seed, threads, clamp_hinges, hinge_model, with the defaults and constraints of
-/// TriangleShellOptions.
-OptionSchema triangle_shell_option_schema();
-/// TriangleShellOptions from options resolved against triangle_shell_option_schema().
-TriangleShellOptions triangle_shell_options(const Options& resolved);
+/// The options of "triangle-shell" (pattern, perturbation, seed, threads, clamp_hinges,
+/// hinge_model), each declared once (core/option_binding.hpp): the registered schema,
+/// validate()'s ranges and the struct read from a config all come from here.
+OptionBindings<TriangleShellOptions> triangle_shell_option_bindings();
 
 /// The three parts of Ψ(q) [J].
 struct TriangleShellEnergyParts {

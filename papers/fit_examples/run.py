@@ -46,17 +46,27 @@ def read_truth(path):
     return values
 
 
+def registered_names(twill: str, category: str) -> str:
+    """The registered names of a category, comma-separated (`twill list --names`)."""
+    out = subprocess.run([twill, "list", "--names", category], check=True, capture_output=True,
+                         text=True).stdout
+    return ",".join(out.split())
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("twill")
     parser.add_argument("examples")
     parser.add_argument("output")
-    parser.add_argument("--optimizers", default="bfgs,gauss-newton,ipopt,nlopt")
+    parser.add_argument("--optimizers", default=None,
+                        help="comma-separated names (default: every registered optimiser, `twill list --names optimizer`)")
     parser.add_argument("--fabrics", default="canvas,poplin")
     parser.add_argument("--refit", action="store_true",
                         help="re-run fits whose OUTPUT_DIR/<fabric>-<optimiser>/report.json exists")
     parser.add_argument("--set", action="append", default=[], dest="sets")
     args = parser.parse_args()
+    if args.optimizers is None:
+        args.optimizers = registered_names(args.twill, "optimizer")
     os.makedirs(args.output, exist_ok=True)
 
     lines = ["| fabric | optimiser | warp | weft | bias | tau a11 | tau a22 | tau G12 | drape | "

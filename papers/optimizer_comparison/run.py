@@ -16,16 +16,26 @@ import subprocess
 import sys
 
 
+def registered_names(twill: str, category: str) -> str:
+    """The registered names of a category, comma-separated (`twill list --names`)."""
+    out = subprocess.run([twill, "list", "--names", category], check=True, capture_output=True,
+                         text=True).stdout
+    return ",".join(out.split())
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("twill")
     parser.add_argument("params")
     parser.add_argument("output")
     parser.add_argument("--resolution", default="4x6")
-    parser.add_argument("--optimizers", default="bfgs,gauss-newton,ipopt,nlopt")
+    parser.add_argument("--optimizers", default=None,
+                        help="comma-separated names (default: every registered optimiser, `twill list --names optimizer`)")
     parser.add_argument("--budget", default="max_iterations=300,max_evaluations=600",
                         help="optimiser options applied to every run (comma separated)")
     args = parser.parse_args()
+    if args.optimizers is None:
+        args.optimizers = registered_names(args.twill, "optimizer")
 
     rows = []
     for test in ("warp", "bias"):

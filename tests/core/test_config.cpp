@@ -143,6 +143,14 @@ TEST_F(Config, OverridesAreTypeChecked) {
   EXPECT_EQ(c.get_string("repeats"), "random");
   EXPECT_EQ(c.get_component("optimizer").options.get_double("damping"), 2.0);
   EXPECT_EQ(c.get_component_list("effects")[1].options.get_double("strength"), 0.75);
+  // A whole component list, as YAML, each entry resolved like a file's.
+  Options whole = read("good.yaml");
+  apply_override(whole, schema, &registry, "effects=[{name: sag, strength: 0.25}]");
+  ASSERT_EQ(whole.get_component_list("effects").size(), 1u);
+  EXPECT_EQ(whole.get_component_list("effects")[0].options.get_double("strength"), 0.25);
+  apply_override(whole, schema, &registry, "effects=[]");
+  EXPECT_TRUE(whole.get_component_list("effects").empty());
+  EXPECT_THROW(apply_override(whole, schema, &registry, "effects=[{name: sag, strength: -1}]"), InputError);
 
   struct Case {
     const char* assignment;

@@ -25,7 +25,8 @@
 #include "core/material_law.hpp"
 #include "discretizations/catmull_clark_kl/catmull_clark_kl.hpp"
 #include "discretizations/catmull_clark_kl/gauss_legendre.hpp"
-#include "tests/support/finite_difference.hpp"
+#include "tests/discretizations/discretization_checks.hpp"
+#include "tests/support/test_materials.hpp"
 
 namespace twill {
 namespace {
@@ -33,7 +34,9 @@ namespace {
 using Eigen::Vector2d;
 using Eigen::Vector3d;
 using Eigen::VectorXd;
-using testing::check_directional_derivative;
+using testing::canvas_stvk;
+using testing::distorted_state;
+using testing::smooth_direction;
 
 constexpr double kLength = 0.075, kWidth = 0.050;
 
@@ -47,64 +50,16 @@ StripSpec small_strip(double angle_deg, int across = 3, int along = 4) {
   return s;
 }
 
-MaterialParameters canvas_stvk() {
-  MaterialParameters p;
-  p.density_kg_m2 = 0.294;
-  p.thickness_m = 0.45e-3;
-  p.a11_Pa = 3e7;
-  p.a22_Pa = 2.2e7;
-  p.a12_Pa = 1.1e7;
-  p.G12_Pa = 4e5;
-  p.cutoffs = Cutoffs{std::nullopt, std::nullopt, std::nullopt, std::nullopt, std::nullopt};
-  return p;
-}
-
 /// Degree-2 curves and a validity box that the distorted state leaves (compression below
 /// E_min = 0 and stretch above the maxima).
 MaterialParameters canvas_nonlinear() {
-  MaterialParameters p = canvas_stvk();
-  p.eta1 = Curve{{0.6, 0.4}, {2.5, 6.0}};
-  p.eta3 = Curve{{1.3, -0.3}, {3.0, 0.5}};
-  p.eta4 = Curve{{0.5, 0.5}, {4.0, 1.5}};
+  MaterialParameters p = testing::canvas_degree2();
   p.cutoffs.E11_min = 0.0;
   p.cutoffs.E11_max = 0.03;
   p.cutoffs.E22_min = 0.0;
   p.cutoffs.E22_max = 0.04;
   p.cutoffs.E12_max = 0.02;
   return p;
-}
-
-/// Rest positions plus a smooth displacement: stretch along x, contraction across, shear,
-/// and an out-of-plane bulge (strains of a few percent, curvature ~10 /m).
-VectorXd distorted_state(const CatmullClarkKL& d) {
-  VectorXd q = d.rest_positions();
-  for (int i = 0; i < d.num_nodes(); ++i) {
-    const double x = q[3 * i], y = q[3 * i + 1];
-    q[3 * i] += 0.04 * x + 0.002 * std::sin(M_PI * x / kLength) * std::cos(M_PI * y / kWidth) + 0.01 * y;
-    q[3 * i + 1] += 0.005 * y + 0.001 * std::sin(2 * M_PI * x / kLength);
-    q[3 * i + 2] += 0.004 * std::sin(M_PI * x / kLength) * (1.0 + 0.3 * y / kWidth) +
-                    0.001 * std::cos(M_PI * y / kWidth);
-  }
-  return q;
-}
-
-/// A smooth random direction (a sum of random low modes per component) plus a little noise,
-/// scaled by the strip length.
-VectorXd smooth_direction(const CatmullClarkKL& d, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
-  double c[3][4];
-  for (auto& row : c)
-    for (double& v : row) v = uniform(rng);
-  VectorXd v(d.num_dofs());
-  const VectorXd& X = d.rest_positions();
-  for (int i = 0; i < d.num_nodes(); ++i)
-    for (int k = 0; k < 3; ++k) {
-      const double x = X[3 * i] / kLength, y = X[3 * i + 1] / kWidth;
-      v[3 * i + k] = kLength * (c[k][0] * std::sin(M_PI * x) + c[k][1] * std::cos(M_PI * y) +
-                                c[k][2] * x * y + 0.1 * c[k][3] * uniform(rng));
-    }
-  return v;
 }
 
 Eigen::Matrix3d material_frame(double angle_deg) {
@@ -197,16 +152,25 @@ double largest_argument_change(const CatmullClarkKL& d, const VectorXd& q1, cons
 }
 
 TEST(CatmullClarkKLOptions, ValidateNamesTheOffendingField) {
-  EXPECT_EQ(CatmullClarkKLOptions{}.validate(), "");
+  std::string error;
+  EXPECT_TRUE(CatmullClarkKLOptions{}.validate(&error)) << error;
   auto message_for = [](auto mutate) {
     CatmullClarkKLOptions o;
     mutate(o);
-    return o.validate();
+    std::string message;
+    EXPECT_FALSE(o.validate(&message));
+    return message;
   };
   EXPECT_NE(message_for([](auto& o) { o.gauss_points_per_direction = 0; }).find("gauss_points_per_direction"), std::string::npos);
   EXPECT_NE(message_for([](auto& o) { o.thickness_points = 1; }).find("thickness_points"), std::string::npos);
   EXPECT_NE(message_for([](auto& o) { o.threads = -1; }).find("threads"), std::string::npos);
   EXPECT_NE(message_for([](auto& o) { o.surface_samples_per_face = 0; }).find("surface_samples_per_face"), std::string::npos);
+  // The cross-field rule (validate() itself, not a binding's range).
+  EXPECT_EQ(message_for([](auto& o) {
+              o.gauss_points_per_direction = 1;
+              o.fibre_strain = FibreStrain::FaceLinear;
+            }).rfind("gauss_points_per_direction must be >= 2 for fibre_strain=face-linear", 0),
+            0u);
   CatmullClarkKLOptions bad;
   bad.thickness_points = 1;
   try {
@@ -251,7 +215,9 @@ TEST(CatmullClarkKL, MeshLayoutAndRestState) {
   }
 }
 
-TEST(CatmullClarkKL, PatchTestUniformStretchIsExactAtEveryAngle) {
+// The patch test's energy (L·W·τ·ψ(Ẽ)) is checked for every registered part in
+// test_every_discretization.cpp; here, the strains the law sees at every Gauss point.
+TEST(CatmullClarkKL, PatchTestStrainsAreUniformAtEveryAngle) {
   for (FibreStrain fibre_strain : all_fibre_strains())
   for (double angle : {0.0, 22.5, 45.0, 67.5, 90.0}) {
     const MaterialParameters parameters = canvas_nonlinear();
@@ -276,9 +242,6 @@ TEST(CatmullClarkKL, PatchTestUniformStretchIsExactAtEveryAngle) {
       EXPECT_LT((point.membrane - expected).cwiseAbs().maxCoeff(), 1e-14) << "angle " << angle;
       EXPECT_LT(point.bending.cwiseAbs().maxCoeff(), 1e-10);  // [1/m]; κ = 0 up to round-off
     }
-    const double psi = MaterialLaw(parameters).energy_density(expected);
-    const double exact = kLength * kWidth * parameters.thickness_m * psi;
-    EXPECT_NEAR(d.energy(q, nullptr, nullptr), exact, 1e-12 * exact) << "angle " << angle;
   }
 }
 
@@ -337,28 +300,6 @@ TEST(CatmullClarkKL, ProjectionReplacesOnlyTheFibreStretchesByTheirFaceProjectio
   }
 }
 
-TEST(CatmullClarkKL, RigidMotionInvariance) {
-  for (FibreStrain fibre_strain : all_fibre_strains()) {
-  const CatmullClarkKL d(small_strip(30), canvas_nonlinear(), two_threads(fibre_strain));
-  const VectorXd q = distorted_state(d);
-  const Eigen::Matrix3d R =
-      Eigen::AngleAxisd(0.7, Vector3d(0.3, -0.5, 0.8).normalized()).toRotationMatrix();
-  const Vector3d t(0.02, -0.013, 0.4);
-  VectorXd moved(q.size());
-  for (int i = 0; i < d.num_nodes(); ++i) moved.segment<3>(3 * i) = R * q.segment<3>(3 * i) + t;
-  VectorXd g, g_moved;
-  const double e = d.energy(q, &g, nullptr);
-  const double e_moved = d.energy(moved, &g_moved, nullptr);
-  EXPECT_GT(e, 0.0);
-  EXPECT_NEAR(e_moved, e, 1e-12 * e);
-  // Forces rotate with the body.
-  double worst = 0.0;
-  for (int i = 0; i < d.num_nodes(); ++i)
-    worst = std::max(worst, (g_moved.segment<3>(3 * i) - R * g.segment<3>(3 * i)).norm());
-  EXPECT_LT(worst, 1e-11 * g.cwiseAbs().maxCoeff());
-  }
-}
-
 // Every derivative check runs for every fibre-strain treatment: a projection couples all
 // Gauss points of a face (docs/catmull_clark_kl.md §12), so its Hessian and ∂g/∂k
 // have terms the pointwise energy does not.
@@ -409,38 +350,19 @@ TEST_P(CatmullClarkKLDerivatives, StateLeavesTheCutoffBoxAwayFromItsFaces) {
 }
 
 TEST_P(CatmullClarkKLDerivatives, GradientMatchesFiniteDifferencesAtSecondOrder) {
-  VectorXd g;
-  d_.energy(q_, &g, nullptr);
-  for (unsigned seed : {11u, 12u}) {
-    const VectorXd v = smooth_direction(d_, seed);
-    auto value = [&](const VectorXd& x) -> VectorXd {
-      return VectorXd::Constant(1, d_.energy(x, nullptr, nullptr));
-    };
-    const auto check = check_directional_derivative(value, q_, v, VectorXd::Constant(1, g.dot(v)),
-                                                    1e-3, 4, 1e-6);
-    EXPECT_TRUE(check.ok) << check.report;
-    EXPECT_FALSE(check.roundoff_only) << check.report;
-  }
+  for (unsigned seed : {11u, 12u}) testing::expect_gradient_converges(d_, q_, smooth_direction(d_, seed), 1e-3, 4, 1e-6);
 }
 
 TEST_P(CatmullClarkKLDerivatives, HessianMatchesFiniteDifferencesOfTheGradient) {
+  for (unsigned seed : {21u, 22u}) {
+    const VectorXd v = smooth_direction(d_, seed);
+    ASSERT_LT(largest_argument_change(d_, q_, q_ + kStep * v), 0.5 * design_.margin);
+    ASSERT_LT(largest_argument_change(d_, q_, q_ - kStep * v), 0.5 * design_.margin);
+    testing::expect_hessian_converges(d_, q_, v, kStep, 3, 1e-6, 1e-12);
+  }
   SparseMatrix H;
   d_.energy(q_, nullptr, &H);
   const Eigen::MatrixXd dense = H;
-  EXPECT_LT((dense - dense.transpose()).cwiseAbs().maxCoeff(), 1e-12 * dense.cwiseAbs().maxCoeff());
-  for (unsigned seed : {21u, 22u}) {
-    const VectorXd v = smooth_direction(d_, seed);
-    auto gradient = [&](const VectorXd& x) -> VectorXd {
-      VectorXd g;
-      d_.energy(x, &g, nullptr);
-      return g;
-    };
-    ASSERT_LT(largest_argument_change(d_, q_, q_ + kStep * v), 0.5 * design_.margin);
-    ASSERT_LT(largest_argument_change(d_, q_, q_ - kStep * v), 0.5 * design_.margin);
-    const auto check = check_directional_derivative(gradient, q_, v, H * v, kStep, 3, 1e-6);
-    EXPECT_TRUE(check.ok) << check.report;
-    EXPECT_FALSE(check.roundoff_only) << check.report;
-  }
   // Every entry, not only directions: one FD column per dof against the matrix (tolerance
   // relative to the largest stiffness, at a step inside the second-order range above).
   const double h = 0.5 * kStep;  // unit steps: smaller than kStep · |v| (v ~ strip length)
@@ -462,63 +384,29 @@ TEST_P(CatmullClarkKLDerivatives, HessianMatchesFiniteDifferencesOfTheGradient) 
 
 TEST_P(CatmullClarkKLDerivatives, ParameterJacobianMatchesFiniteDifferencesForEveryParameter) {
   d_.set_gravity(Vector3d(0.4, -0.3, -9.81));  // so that density enters the gradient
-  Eigen::MatrixXd dk;
-  d_.gradient_parameter_jacobian(q_, &dk);
+  ASSERT_EQ(d_.parameters().to_flat().size(), 6 + 3 * 3);  // degree-2 curves: one mu and two alphas each
+  const testing::ParameterStepRule step = testing::relative_parameter_step;
+  // τ moves the through-thickness points: no law argument may cross a cutoff over the stencil.
   const MaterialParameters p0 = d_.parameters();
-  const VectorXd k0 = p0.to_flat();
-  const auto names = p0.parameter_names();
-  ASSERT_EQ(dk.rows(), d_.num_dofs());
-  ASSERT_EQ(dk.cols(), k0.size());
-  ASSERT_EQ(k0.size(), 6 + 3 * 3);  // degree-2 curves: one mu and two alphas each
-  for (int column = 0; column < k0.size(); ++column) {
-    auto gradient_at = [&](const VectorXd& k) -> VectorXd {
-      MaterialParameters p = p0;
-      p.set_from_flat(k);
-      d_.set_parameters(p);
-      VectorXd g;
-      d_.energy(q_, &g, nullptr);
-      return g;
-    };
-    const std::string& name = names[static_cast<size_t>(column)];
-    const VectorXd unit = VectorXd::Unit(k0.size(), column);
-    // The gradient is linear in density, the stiffnesses and the μ's (central differences
-    // are then exact up to round-off); it depends on τ and the α's nonlinearly. An α acts
-    // through (1 + Ẽ²)^α with Ẽ² ~ 1e-3, so its third derivative is tiny: a step of 0.4 α
-    // is still in the asymptotic range and keeps the truncation error above round-off.
-    const bool linear = name.find(".mu[") != std::string::npos || column == FlatLayout::kDensity ||
-                        (column >= FlatLayout::kA11 && column <= FlatLayout::kG12);
-    const bool alpha = name.find(".alpha[") != std::string::npos;
-    const double h0 = (alpha ? 0.4 : 1e-2) * std::abs(k0[column]);
-    if (column == FlatLayout::kThickness)  // τ moves the through-thickness points
-      for (double sign : {-1.0, 1.0}) {
-        MaterialParameters thick = p0;
-        thick.thickness_m += sign * h0;
-        const auto before = law_arguments(d_, q_);
-        const auto after = law_arguments(CatmullClarkKL(d_.strip(), thick, d_.options()), q_);
-        for (int c = 0; c < 3; ++c)
-          for (size_t k = 0; k < before[static_cast<size_t>(c)].size(); ++k)
-            ASSERT_LT(std::abs(after[static_cast<size_t>(c)][k] - before[static_cast<size_t>(c)][k]),
-                      0.5 * design_.margin);
-      }
-    const auto check = check_directional_derivative(gradient_at, k0, unit, dk.col(column), h0, 4, 1e-6);
-    EXPECT_TRUE(check.ok) << name << ": " << check.report;
-    if (!linear) {
-      EXPECT_FALSE(check.roundoff_only) << name << ": " << check.report;
-    }
-    EXPECT_GT(dk.col(column).cwiseAbs().maxCoeff(), 0.0) << names[static_cast<size_t>(column)];
+  const double h0 = step("thickness_m", p0.thickness_m)->h0;
+  for (double sign : {-1.0, 1.0}) {
+    MaterialParameters thick = p0;
+    thick.thickness_m += sign * h0;
+    const auto before = law_arguments(d_, q_);
+    const auto after = law_arguments(CatmullClarkKL(d_.strip(), thick, d_.options()), q_);
+    for (int c = 0; c < 3; ++c)
+      for (size_t k = 0; k < before[static_cast<size_t>(c)].size(); ++k)
+        ASSERT_LT(std::abs(after[static_cast<size_t>(c)][k] - before[static_cast<size_t>(c)][k]),
+                  0.5 * design_.margin);
   }
-  d_.set_parameters(p0);
+  testing::expect_parameter_jacobian_converges(d_, q_, step, 4, 1e-6);
 }
 
-TEST_P(CatmullClarkKLDerivatives, HessianPatternIsReusedAndAssemblyStrategiesAgree) {
+// Pattern reuse is checked for every registered part in test_every_discretization.cpp.
+TEST_P(CatmullClarkKLDerivatives, AssemblyStrategiesAgree) {
   VectorXd g1;
   SparseMatrix H1;
   const double e1 = d_.energy(q_, &g1, &H1);
-  const double* values = H1.valuePtr();
-  const VectorXd q2 = q_ + 1e-4 * smooth_direction(d_, 3);
-  d_.energy(q2, nullptr, &H1);
-  EXPECT_EQ(H1.valuePtr(), values);  // same storage: values only were overwritten
-  d_.energy(q_, nullptr, &H1);
 
   for (auto assembly : {CatmullClarkKLOptions::Assembly::Colouring, CatmullClarkKLOptions::Assembly::ThreadLocal})
     for (int threads : {1, 2}) {

@@ -99,12 +99,15 @@ TEST(StripTriangulation, IrregularPatternIsSeededAndKeepsTheOutline) {
 
 TEST(TriangleShellOptions, ValidationNamesTheField) {
   TriangleShellOptions o;
-  EXPECT_EQ(o.validate(), "");
+  std::string error;
+  EXPECT_TRUE(o.validate(&error)) << error;
   o.perturbation = 0.3;
-  EXPECT_EQ(o.validate().rfind("perturbation", 0), 0u) << o.validate();
+  EXPECT_FALSE(o.validate(&error));
+  EXPECT_EQ(error.rfind("perturbation", 0), 0u) << error;
   o.perturbation = 0.1;
   o.threads = -1;
-  EXPECT_EQ(o.validate().rfind("threads", 0), 0u) << o.validate();
+  EXPECT_FALSE(o.validate(&error));
+  EXPECT_EQ(error.rfind("threads", 0), 0u) << error;
 
   EXPECT_EQ(triangle_pattern_from_string("cross"), TrianglePattern::Cross);
   try {
@@ -138,7 +141,10 @@ TEST(TriangleShellOptions, ValidationNamesTheField) {
 }
 
 TEST(TriangleShellOptions, RegistrySchemaMatchesTheOptions) {
-  const OptionSchema schema = triangle_shell_option_schema();
+  const OptionSchema schema = option_schema(triangle_shell_option_bindings());
+  const auto triangle_shell_options = [](const Options& resolved) {
+    return options_from(triangle_shell_option_bindings(), resolved, "triangle-shell");
+  };
   Options o = default_options(schema, nullptr);
   const TriangleShellOptions d = triangle_shell_options(o), defaults;
   EXPECT_EQ(d.pattern, defaults.pattern);
@@ -201,11 +207,12 @@ TEST(TriangleShell, ClampHingesHoldTheSlopeInsteadOfTheNextColumn) {
   }
   EXPECT_EQ(strip_ends_from_string("both"), StripEnds::Both);
   EXPECT_EQ(input_error_key([] { strip_ends_from_string("left"); }), "clamp_hinges");
-  const OptionSchema schema = triangle_shell_option_schema();
+  const auto bindings = triangle_shell_option_bindings();
+  const OptionSchema schema = option_schema(bindings);
   Options o = default_options(schema, nullptr);
-  EXPECT_EQ(triangle_shell_options(o).clamp_hinges, TriangleShellOptions{}.clamp_hinges);
+  EXPECT_EQ(options_from(bindings, o, "triangle-shell").clamp_hinges, TriangleShellOptions{}.clamp_hinges);
   apply_override(o, schema, nullptr, "clamp_hinges=start");
-  EXPECT_EQ(triangle_shell_options(o).clamp_hinges, StripEnds::Start);
+  EXPECT_EQ(options_from(bindings, o, "triangle-shell").clamp_hinges, StripEnds::Start);
   EXPECT_THROW(apply_override(o, schema, nullptr, "clamp_hinges=middle"), InputError);
 }
 

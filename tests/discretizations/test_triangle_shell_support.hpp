@@ -6,6 +6,7 @@
 
 #include "core/parameters.hpp"
 #include "discretizations/triangle_shell/triangle_shell.hpp"
+#include "tests/support/test_materials.hpp"
 
 namespace twill::triangle_shell_test {
 
@@ -34,17 +35,7 @@ inline StripSpec checkerboard_strip() {
 
 /// τ = 0.45 mm, a11 = 3e7, a22 = 2.2e7, a12 = 1.1e7, G12 = 4e5 Pa, ρ_A = 0.294 kg/m²,
 /// linear curves (orthotropic StVK), cutoffs off.
-inline MaterialParameters physical_parameters() {
-  MaterialParameters p;
-  p.density_kg_m2 = 0.294;
-  p.thickness_m = 0.45e-3;
-  p.a11_Pa = 3e7;
-  p.a12_Pa = 1.1e7;
-  p.a22_Pa = 2.2e7;
-  p.G12_Pa = 4e5;
-  p.cutoffs = Cutoffs{std::nullopt, std::nullopt, std::nullopt, std::nullopt, std::nullopt};
-  return p;
-}
+inline MaterialParameters physical_parameters() { return testing::canvas_stvk(); }
 
 /// Degree-2 curves (a negative μ, exponents on both sides of 1) on top of the physical
 /// stiffnesses; the caller sets the cutoffs.
@@ -109,15 +100,6 @@ inline double kirchhoff_love_cylinder_density(const MaterialParameters& p, doubl
       p.a11_Pa * e1 * e1 + 2 * p.a12_Pa * e1 * e2 + p.a22_Pa * e2 * e2 + 2 * p.G12_Pa * e3 * e3;
   const double t = p.thickness_m;
   return t * t * t / 24.0 * q / (radius * radius);
-}
-
-/// Applies x ↦ R x + b to every node of q.
-inline Eigen::VectorXd rigidly_moved(const Eigen::VectorXd& q, const Eigen::Matrix3d& R,
-                                     const Eigen::Vector3d& b) {
-  Eigen::VectorXd out(q.size());
-  for (Eigen::Index i = 0; i < q.size() / 3; ++i)
-    out.segment<3>(3 * i) = R * q.segment<3>(3 * i) + b;
-  return out;
 }
 
 }  // namespace twill::triangle_shell_test

@@ -25,6 +25,9 @@ struct Case {
   std::string effect, experiment, discretization;
 };
 
+// GoogleTest's description of a case (instead of its bytes).
+void PrintTo(const Case& c, std::ostream* os) { *os << c.effect << " via " << c.experiment << " on " << c.discretization; }
+
 std::vector<Case> every_case() {
   std::vector<Case> cases;
   for (const std::string& f : registered(registry_category::kEffect))
@@ -195,7 +198,7 @@ TEST(EffectParameters, FlatViewReadsAndWritesWithBounds) {
 // ---- misalignment --------------------------------------------------------------------------------
 
 TEST(Misalignment, NeedsRepeatsAndEstimatesTheSpreadAsTheRmsOffset) {
-  const Misalignment m(0.0);
+  const Misalignment m(MisalignmentOptions{});
   Dataset one_run;
   one_run.tensile.resize(1);
   one_run.tensile[0].runs.resize(1);

@@ -41,6 +41,9 @@ struct Case {
   std::string experiment, discretization;
 };
 
+// GoogleTest's description of a case (instead of its bytes).
+void PrintTo(const Case& c, std::ostream* os) { *os << c.experiment << " on " << c.discretization; }
+
 std::vector<Case> every_case() {
   std::vector<Case> cases;
   for (const std::string& e : registered(registry_category::kExperiment))

@@ -25,7 +25,8 @@
 #include "discretizations/catmull_clark_kl/catmull_clark_kl.hpp"
 #include "experiments/tensile_strip.hpp"
 #include "experiments/uniform_strain.hpp"
-#include "optimizers/optimizer_factory.hpp"
+#include "optimizers/optimizer.hpp"
+#include "tests/support/program_registry.hpp"
 #include "tests/support/finite_difference.hpp"
 
 namespace twill {
@@ -500,8 +501,8 @@ TEST(UniformStrainPredictor, GaussNewtonRecoversWarpParametersFromItsOwnData) {
   auto predictor = std::make_shared<UniformStrainPredictor>("warp (uniform strain)", setup,
                                                             extensions, forces);
   FitObjective objective(map, {predictor});
-  std::unique_ptr<Optimizer> optimizer =
-      make_optimizer("gauss-newton", optimizer_options("gauss-newton", {"max_iterations=200"}));
+  std::unique_ptr<Optimizer> optimizer = testing::create_registered<OptimizerFactories>(
+      registry_category::kOptimizer, "gauss-newton", {"max_iterations=200"});
   const OptimizerResult result = optimizer->minimize(objective, map.initial_x());
   const MaterialParameters fitted = map.parameters(result.x);
   objective.evaluate(result.x, nullptr);

@@ -4,6 +4,7 @@
 // that the pipeline runs and produces honest reports in a CI-sized budget.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -12,28 +13,13 @@
 #include "core/input_error.hpp"
 #include "core/params_io.hpp"
 #include "core/yaml_reader.hpp"
-#include "discretizations/catmull_clark_kl/register_catmull_clark_kl.hpp"
-#include "discretizations/triangle_shell/register_triangle_shell.hpp"
-#include "effects/register_effects.hpp"
-#include "experiments/register_experiments.hpp"
 #include "fitting/fit_protocol.hpp"
-#include "optimizers/optimizer_factory.hpp"
+#include "tests/support/program_registry.hpp"
 
 namespace twill {
 namespace {
 
-Registry& registry() {
-  static Registry r = [] {
-    Registry reg;
-    register_catmull_clark_kl(reg);
-    register_triangle_shell(reg);
-    register_optimizers(reg);
-    register_experiments(reg);
-    register_effects(reg);
-    return reg;
-  }();
-  return r;
-}
+const Registry& registry() { return testing::program_registry(); }
 
 // A CI-sized protocol: one coarse level, few points, short cantilever, coarse Δθ search.
 Options coarse_config(const std::vector<std::string>& extra = {}) {
@@ -49,7 +35,9 @@ Options coarse_config(const std::vector<std::string>& extra = {}) {
 
 TEST(FitProtocol, CanvasExampleEndToEndAtCoarseResolution) {
   const Dataset dataset = read_dataset(std::string(TWILL_SOURCE_DIR) + "/examples/canvas");
-  const Options config = coarse_config();
+  // With the misalignment effect (effects/misalignment.hpp): its spread is estimated from the
+  // validation offsets and written to params.yaml.
+  const Options config = coarse_config({"effects=[misalignment]"});
   std::vector<std::string> lines;
   const FitReport report = run_fit(dataset, config, registry(),
                                    [&](int, const std::string& line) { lines.push_back(line); });
@@ -74,6 +62,14 @@ TEST(FitProtocol, CanvasExampleEndToEndAtCoarseResolution) {
   ASSERT_EQ(report.bend.size(), dataset.bend.size());
   for (const FitBend& b : report.bend) EXPECT_NEAR(b.chord_angle_deg, 41.5, 1.0) << b.label;
   EXPECT_FALSE(report.validation.empty());
+  double sum_squares = 0;
+  for (const FitCurve& v : report.validation) sum_squares += v.delta_theta_deg * v.delta_theta_deg;
+  ASSERT_EQ(p.effects.size(), 1u);
+  EXPECT_EQ(p.effects[0].name, "misalignment");
+  EXPECT_DOUBLE_EQ(p.effects[0].options.get_double("spread_deg"),
+                   std::sqrt(sum_squares / static_cast<double>(report.validation.size())));
+  std::printf("[measured] coarse fit misalignment spread %.3f deg over %zu validation runs\n",
+              p.effects[0].options.get_double("spread_deg"), report.validation.size());
   EXPECT_FALSE(lines.empty());
   EXPECT_EQ(report.timing_s.back().first, "total");
 
@@ -83,8 +79,9 @@ TEST(FitProtocol, CanvasExampleEndToEndAtCoarseResolution) {
   write_fit_outputs(report, config, dir.string());
   for (const char* f : {"params.yaml", "report.json", "report.md", "config.yaml"})
     EXPECT_TRUE(std::filesystem::exists(dir / f)) << f;
-  const MaterialParameters reread = read_params_file((dir / "params.yaml").string());
+  const MaterialParameters reread = read_params_file((dir / "params.yaml").string(), &registry());
   EXPECT_EQ(reread.to_flat(), p.to_flat());
+  EXPECT_EQ(reread.effects, p.effects);
   std::ifstream in(dir / "report.json");
   const nlohmann::json j = nlohmann::json::parse(in);
   for (const char* key : {"dataset", "config", "parameters", "fit", "bend", "validation", "timing_s",
@@ -168,6 +165,18 @@ TEST(FitProtocol, ImpossibleConfigIsAnInputErrorNamingTheKey) {
   }
   EXPECT_THROW(apply_override(config, schema, &registry(), "optimizer=newton"), InputError);
   EXPECT_THROW(apply_override(config, schema, &registry(), "resolution.cells=3"), InputError);
+}
+
+TEST(FitProtocol, EffectTheDataCannotInformIsAnInputErrorBeforeAnyWork) {
+  Dataset d = read_dataset(std::string(TWILL_SOURCE_DIR) + "/examples/canvas");
+  for (TensileTest& t : d.tensile) t.runs.resize(1);  // no repeats: no spread to estimate
+  try {
+    run_fit(d, coarse_config({"effects=[misalignment]"}), registry(), {});
+    FAIL() << "accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("effects[0]"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("repeats"), std::string::npos) << e.what();
+  }
 }
 
 TEST(FitProtocol, DatasetWithoutWarpTestIsAnInputError) {

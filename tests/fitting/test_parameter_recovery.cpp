@@ -12,9 +12,8 @@
 #include <ostream>
 
 #include "core/params_io.hpp"
-#include "discretizations/catmull_clark_kl/register_catmull_clark_kl.hpp"
 #include "fitting/recovery_study.hpp"
-#include "optimizers/optimizer_factory.hpp"
+#include "tests/support/program_registry.hpp"
 
 namespace twill {
 namespace {
@@ -22,7 +21,7 @@ namespace {
 struct Case {
   const char* test;
   int degree;
-  const char* optimizer;
+  std::string optimizer;
 };
 // Printed by gtest (ctest shows the parameter) instead of the struct's bytes.
 void PrintTo(const Case& c, std::ostream* os) {
@@ -32,11 +31,7 @@ void PrintTo(const Case& c, std::ostream* os) {
 class ParameterRecovery : public ::testing::TestWithParam<Case> {};
 
 TEST_P(ParameterRecovery, FitsSimulatedDataBackToTheTruth) {
-  static Registry registry = [] {
-    Registry r;
-    register_catmull_clark_kl(r);
-    return r;
-  }();
+  const Registry& registry = testing::program_registry();
   const Case c = GetParam();
   RecoveryCase rc;
   rc.test = c.test;
@@ -48,7 +43,7 @@ TEST_P(ParameterRecovery, FitsSimulatedDataBackToTheTruth) {
   const RecoveryResult r = run_recovery(rc, base, registry);
   std::printf("[measured] recovery %s deg %d %-12s: %s, %d its, %ld evals, %ld solves, %.2f s, "
               "stiffness %+.2e, curve error %.2e, eps %.3e\n",
-              c.test, c.degree, c.optimizer, r.status.c_str(), r.iterations, r.evaluations,
+              c.test, c.degree, c.optimizer.c_str(), r.status.c_str(), r.iterations, r.evaluations,
               r.equilibrium_solves, r.wall_time_s, r.stiffness_error, r.curve_error, r.final_value);
   EXPECT_LT(std::abs(r.stiffness_error), 5e-3) << r.message;
   EXPECT_LT(r.curve_error, 1e-3) << r.message;
@@ -58,7 +53,7 @@ std::vector<Case> all_cases() {
   std::vector<Case> cases;
   for (const char* test : {"warp", "bias"})
     for (int degree : {1, 2, 3})
-      for (const char* optimizer : {"bfgs", "gauss-newton", "ipopt", "nlopt"})
+      for (const std::string& optimizer : testing::registered_names(registry_category::kOptimizer))
         cases.push_back({test, degree, optimizer});
   return cases;
 }

@@ -9,7 +9,6 @@
 #include <functional>
 #include <memory>
 
-#include "optimizers/optimizer_factory.hpp"
 #include "tests/optimizers/optimizer_cases.hpp"
 #include "tests/optimizers/test_problems.hpp"
 
@@ -43,18 +42,31 @@ std::vector<ProblemCase> problem_cases() {
   };
 }
 
-// Accuracy required of ‖x − x*‖∞ (docs/optimizers.md): 1e-6 for gradient-based methods at the
-// default tolerances; 1e-5 for MMA (its conservative convex approximations creep along the
-// Rosenbrock valley: measured 4e-7) and for derivative-free BOBYQA (measured 1e-9; looser
-// because nothing but the trust-region radius bounds its error).
-double tolerance(const OptimizerCase& o) {
-  return o.derivative_free || o.label == "nlopt LD_MMA" ? 1e-5 : 1e-6;
+// MMA and CCSAQ (the conservative convex separable approximations of NLopt).
+bool is_ccsa(const OptimizerCase& o) {
+  return o.label == "nlopt algorithm=LD_MMA" || o.label == "nlopt algorithm=LD_CCSAQ";
 }
 
-// Combinations left out, with the reason (measured with 1e5 evaluations, docs/optimizers.md):
-// MMA does not reach the minimum of the condition-1e6 quadratic (|x - x*| = 0.33).
+// Accuracy required of ‖x − x*‖∞ (docs/optimizers.md): 1e-6 for gradient-based methods at the
+// default tolerances; 1e-5 for MMA and CCSAQ (their conservative convex approximations creep
+// along the Rosenbrock valley: measured 4e-7) and for derivative-free methods (BOBYQA measured
+// 1e-9; looser because nothing but the trust-region radius or simplex size bounds the error).
+double tolerance(const OptimizerCase& o) { return o.derivative_free || is_ccsa(o) ? 1e-5 : 1e-6; }
+
+// Combinations left out, with the reason (measured with 1e5 evaluations, step_tolerance 1e-10,
+// docs/optimizers.md "Other NLopt algorithms"): every registered configuration runs, these
+// pairs do not reach the minimum within the matrix's budget of 20000 evaluations.
 bool skipped(const OptimizerCase& o, const ProblemCase& p) {
-  return o.label == "nlopt LD_MMA" && p.label == "quadratic-1e6";
+  const std::string& a = o.label;
+  // MMA / CCSAQ do not get close on the condition-1e6 quadratic (|x - x*| = 0.33 / 0.48).
+  if (is_ccsa(o) && p.label == "quadratic-1e6") return true;
+  // COBYLA needs 38030 evaluations on rosenbrock-2 and does not converge on the other two.
+  if (a == "nlopt algorithm=LN_COBYLA" && p.label != "exp-fit") return true;
+  // Nelder-Mead stops on its function test at |x - x*| = 5.7 on rosenbrock-10.
+  if (a == "nlopt algorithm=LN_NELDERMEAD" && p.label == "rosenbrock-10") return true;
+  // Subplex reaches the limit on rosenbrock-10 (1.7e-1) and the quadratic (7.4e-1).
+  if (a == "nlopt algorithm=LN_SBPLX" && (p.label == "rosenbrock-10" || p.label == "quadratic-1e6")) return true;
+  return false;
 }
 
 TEST(OptimizerMatrix, EveryOptimizerReachesEveryKnownMinimum) {

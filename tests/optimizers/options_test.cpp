@@ -1,7 +1,7 @@
 // Option schemas and validation: every options struct names the violated constraint; options
 // given like a config (`--set key=value`) are checked against the schema with InputErrors that
-// name the key; the factory rejects unknown names listing the known ones; the schemas'
-// defaults are the structs' defaults; registration in the registry works.
+// name the key; the registry rejects unknown names listing the known ones; every registered
+// optimiser's schema defaults are its struct's defaults.
 #include <gtest/gtest.h>
 
 #include <set>
@@ -11,7 +11,7 @@
 #include "optimizers/gauss_newton.hpp"
 #include "optimizers/ipopt_optimizer.hpp"
 #include "optimizers/nlopt_optimizer.hpp"
-#include "optimizers/optimizer_factory.hpp"
+#include "tests/support/program_registry.hpp"
 
 namespace twill {
 namespace {
@@ -98,58 +98,69 @@ TEST(OptimizerOptions, ConstructorsRejectInvalidOptions) {
   EXPECT_THROW(IpoptOptimizer{ipopt}, InputError);
 }
 
-TEST(OptimizerFactory, UnknownNameListsTheKnownOnes) {
-  for (auto body : {std::function<void()>([] { make_optimizer("newton"); }),
-                    std::function<void()>([] { optimizer_options("newton"); })}) {
+// The optimizer category of the program's registry, and choices in it with overrides.
+const OptimizerFactories& optimizers() {
+  return dynamic_cast<const OptimizerFactories&>(
+      *testing::program_registry().find_category(registry_category::kOptimizer));
+}
+ComponentChoice choice(const std::string& name, const std::vector<std::string>& overrides = {}) {
+  return testing::program_registry().choice(registry_category::kOptimizer, name, overrides);
+}
+std::unique_ptr<Optimizer> create(const ComponentChoice& chosen) { return optimizers().create(chosen); }
+
+TEST(OptimizerRegistry, UnknownNameListsTheKnownOnes) {
+  std::string known;
+  for (const auto& name : testing::registered_names(registry_category::kOptimizer))
+    known += (known.empty() ? "" : ", ") + name;
+  EXPECT_EQ(optimizers().known_names(), known);
+  for (auto body : {std::function<void()>([] { optimizers().create_with_defaults("newton"); }),
+                    std::function<void()>([] { choice("newton"); })}) {
     const InputError e = input_error(body);
-    EXPECT_EQ(e.where().key, "optimizer");
-    EXPECT_TRUE(
-        contains(e.what(), "unknown optimizer 'newton'; known: bfgs, gauss-newton, ipopt, nlopt"))
-        << e.what();
+    EXPECT_TRUE(contains(e.what(), "unknown optimizer 'newton' (known: " + known + ")")) << e.what();
   }
 }
 
-TEST(OptimizerFactory, BadOptionsNameTheKey) {
-  InputError e = input_error([] { optimizer_options("bfgs", {"c3=0.1"}); });
+TEST(OptimizerRegistry, BadOptionsNameTheKey) {
+  InputError e = input_error([] { choice("bfgs", {"c3=0.1"}); });
   EXPECT_EQ(e.where().key, "c3");
   EXPECT_TRUE(contains(e.what(), "c1")) << e.what();  // the known keys are listed
 
-  e = input_error([] { optimizer_options("bfgs", {"c2=high"}); });
+  e = input_error([] { choice("bfgs", {"c2=high"}); });
   EXPECT_EQ(e.where().key, "c2");
 
-  e = input_error([] { optimizer_options("bfgs", {"max_iterations=2.5"}); });
+  e = input_error([] { choice("bfgs", {"max_iterations=2.5"}); });
   EXPECT_EQ(e.where().key, "max_iterations");
 
-  e = input_error([] { optimizer_options("bfgs", {"c2=1.5"}); });
+  e = input_error([] { choice("bfgs", {"c2=1.5"}); });
   EXPECT_EQ(e.where().key, "c2");
   EXPECT_TRUE(contains(e.what(), "must be in (0, 1), got 1.5")) << e.what();
 
-  e = input_error([] { optimizer_options("gauss-newton", {"damping=trust-region"}); });
+  e = input_error([] { choice("gauss-newton", {"damping=trust-region"}); });
   EXPECT_EQ(e.where().key, "damping");
   EXPECT_TRUE(contains(e.what(), "one of: none, levenberg-marquardt")) << e.what();
 
-  e = input_error([] { optimizer_options("nlopt", {"algorithm=LD_FOO"}); });
+  e = input_error([] { choice("nlopt", {"algorithm=LD_FOO"}); });
   EXPECT_EQ(e.where().key, "algorithm");
   EXPECT_TRUE(contains(e.what(), "LD_LBFGS, LD_SLSQP, LD_MMA")) << e.what();
   EXPECT_TRUE(contains(e.what(), "LN_BOBYQA")) << e.what();
 
-  e = input_error([] { optimizer_options("ipopt", {"max_evaluations=0"}); });
+  e = input_error([] { choice("ipopt", {"max_evaluations=0"}); });
   EXPECT_EQ(e.where().key, "max_evaluations");
 
-  // Each key passes on its own, the combination fails: the message names both.
-  e = input_error([] { make_optimizer("bfgs", optimizer_options("bfgs", {"c1=0.5", "c2=0.4"})); });
+  // Each key passes on its own, the combination fails: the message names both, the key the first.
+  e = input_error([] { create(choice("bfgs", {"c1=0.5", "c2=0.4"})); });
   EXPECT_TRUE(contains(e.what(), "c1 = 0.5 must be smaller than c2 = 0.4")) << e.what();
+  EXPECT_EQ(e.where().key, "c1");
 
   // Options that do not match the schema are a programming error, not an input error.
-  Options wrong = optimizer_options("bfgs");
-  wrong.set("c9", 1.0);
-  EXPECT_THROW(make_optimizer("bfgs", wrong), std::logic_error);
+  ComponentChoice wrong = choice("bfgs");
+  wrong.options.set("c9", 1.0);
+  EXPECT_THROW(create(wrong), std::logic_error);
 }
 
-TEST(OptimizerFactory, OverridesReachTheOptimizer) {
-  auto optimizer = make_optimizer(
-      "gauss-newton", optimizer_options("gauss-newton", {"max_iterations=20", "damping=none",
-                                                         "gradient_tolerance=1e-3"}));
+TEST(OptimizerRegistry, OverridesReachTheOptimizer) {
+  auto optimizer = create(choice("gauss-newton", {"max_iterations=20", "damping=none",
+                                                  "gradient_tolerance=1e-3"}));
   const auto& gn = dynamic_cast<const GaussNewton&>(*optimizer);
   EXPECT_EQ(gn.options().max_iterations, 20);
   EXPECT_EQ(gn.options().damping, GaussNewtonDamping::none);
@@ -159,19 +170,19 @@ TEST(OptimizerFactory, OverridesReachTheOptimizer) {
   EXPECT_EQ(resolved.get_string("damping"), "none");
 }
 
-TEST(OptimizerCatalogue, SchemasMatchTheOptionStructs) {
-  const auto catalogue = optimizer_catalogue();
-  ASSERT_EQ(catalogue.size(), 4u);
-  for (const auto& info : catalogue) {
-    SCOPED_TRACE(info.name);
-    EXPECT_FALSE(info.description.empty());
-    const Options defaults = default_options(info.options, nullptr);
-    auto optimizer = make_optimizer(info.name);
-    EXPECT_EQ(optimizer->name(), info.name);
+TEST(OptimizerRegistry, EverySchemaMatchesItsOptionStruct) {
+  ASSERT_FALSE(optimizers().entries().empty());
+  for (const auto& entry : optimizers().entries()) {
+    SCOPED_TRACE(entry.name);
+    EXPECT_FALSE(entry.description.empty());
+    const Options defaults = default_options(entry.options, nullptr);
+    auto optimizer = optimizers().create_with_defaults(entry.name);
+    ASSERT_TRUE(optimizer);
+    EXPECT_EQ(optimizer->name(), entry.name);
     // The schema's defaults are the struct's defaults, every one valid and documented.
     EXPECT_EQ(optimizer->resolved_options(), defaults);
     std::set<std::string> names;
-    for (const auto& spec : info.options.options()) {
+    for (const auto& spec : entry.options.options()) {
       SCOPED_TRACE(spec.name);
       EXPECT_TRUE(names.insert(spec.name).second) << "duplicate option";
       EXPECT_FALSE(spec.doc.empty());
@@ -181,38 +192,24 @@ TEST(OptimizerCatalogue, SchemasMatchTheOptionStructs) {
                                "max_iterations", "max_evaluations"})
       EXPECT_TRUE(names.count(common)) << common;
     // The resolved options round-trip through the factory.
-    const Options changed = optimizer_options(info.name, {"max_evaluations=77"});
-    EXPECT_EQ(make_optimizer(info.name, changed)->resolved_options(), changed);
+    const ComponentChoice changed = choice(entry.name, {"max_evaluations=77"});
+    EXPECT_EQ(create(changed)->resolved_options(), changed.options);
   }
 }
 
-TEST(OptimizerCatalogue, RangesReadAsConstraints) {
-  const OptionSchema bfgs = optimizer_catalogue()[0].options;
+TEST(OptimizerRegistry, RangesReadAsConstraints) {
+  const OptionSchema& bfgs = optimizers().at("bfgs").options;
   EXPECT_EQ(bfgs.find("c1")->constraint_text(), "in (0, 1)");
   EXPECT_EQ(bfgs.find("gradient_tolerance")->constraint_text(), ">= 0");
   EXPECT_EQ(bfgs.find("max_line_search_evaluations")->constraint_text(), "in [1, 1000]");
   EXPECT_EQ(bfgs.find("c2")->type, OptionType::Double);
   EXPECT_EQ(bfgs.find("max_iterations")->type, OptionType::Int);
-  const OptionSchema gn = optimizer_catalogue()[1].options;
+  const OptionSchema& gn = optimizers().at("gauss-newton").options;
   EXPECT_EQ(gn.find("damping")->type, OptionType::String);
   EXPECT_EQ(gn.find("damping")->constraint_text(), "one of: none, levenberg-marquardt");
   EXPECT_EQ(gn.find("damping")->default_text(), "levenberg-marquardt");
-  const OptionSchema nlopt = optimizer_catalogue()[3].options;
+  const OptionSchema& nlopt = optimizers().at("nlopt").options;
   EXPECT_TRUE(contains(nlopt.find("max_iterations")->doc, "not used")) << "NLopt has no iterations";
-}
-
-TEST(OptimizerRegistration, EveryOptimizerIsCreatedThroughTheRegistry) {
-  Registry registry;
-  register_optimizers(registry);
-  auto& category = registry.category<OptimizerFactories>(registry_category::kOptimizer);
-  EXPECT_EQ(category.known_names(), "bfgs, gauss-newton, ipopt, nlopt");
-  for (const auto& name : optimizer_names()) {
-    auto optimizer = category.create_with_defaults(name);
-    ASSERT_TRUE(optimizer);
-    EXPECT_EQ(optimizer->name(), name);
-  }
-  const InputError e = input_error([&] { category.create_with_defaults("newton"); });
-  EXPECT_TRUE(contains(e.what(), "bfgs, gauss-newton, ipopt, nlopt")) << e.what();
 }
 
 }  // namespace

@@ -1,6 +1,6 @@
 #pragma once
-// What the registry-driven tests share: the program's registry (every registered
-// discretisation, experiment and effect, as app/main.cpp registers them), small runs of
+// What the registry-driven tests of experiments and effects share: the program's registry
+// (tests/support/program_registry.hpp), small runs of
 // experiments by their scheduled quantity, tight re-solves, and the finite-difference
 // comparison of derivatives against re-solves at steps h and h/2.
 #include <gtest/gtest.h>
@@ -12,35 +12,18 @@
 
 #include "core/discretization_registry.hpp"
 #include "core/params_io.hpp"
-#include "discretizations/catmull_clark_kl/register_catmull_clark_kl.hpp"
-#include "discretizations/triangle_shell/register_triangle_shell.hpp"
-#include "effects/register_effects.hpp"
 #include "experiments/experiment.hpp"
-#include "experiments/register_experiments.hpp"
+#include "tests/support/program_registry.hpp"
 
 namespace twill::testing {
 
-inline const Registry& registry() {
-  static const Registry r = [] {
-    Registry reg;
-    register_catmull_clark_kl(reg);
-    register_triangle_shell(reg);
-    register_experiments(reg);
-    register_effects(reg);
-    return reg;
-  }();
-  return r;
-}
+inline const Registry& registry() { return program_registry(); }
 
-inline std::vector<std::string> registered(const char* category) {
-  std::vector<std::string> names;
-  for (const RegistryEntry& e : registry().find_category(category)->entries()) names.push_back(e.name);
-  return names;
-}
+inline std::vector<std::string> registered(const char* category) { return registered_names(category); }
 
 /// A registered implementation with its default options.
 inline ComponentChoice default_choice(const char* category, const std::string& name) {
-  return {category, name, default_options(registry().find_category(category)->at(name).options, nullptr)};
+  return registry().choice(category, name, {});
 }
 
 inline DiscretizationFactory factory_for(const std::string& name) {
