@@ -2,7 +2,7 @@
 """The reliability corpus of issue #13: malformed and hostile inputs of every kind, each with
 its expected outcome, run against the `twill` program.
 
-Usage: reliability_corpus.py --twill BUILD/app/twill [--only SUBSTRING] [--keep]
+Usage: reliability_corpus.py --twill BUILD/app/twill [--only SUBSTRING] [--keep] [--asan]
 
 The cases are generated here, each into its own scratch folder (a temporary directory; nothing
 is written anywhere else): fabric.yaml values and structure, dataset paths (escapes, absolute
@@ -40,6 +40,9 @@ MAX_OUTPUT_BYTES = 8000
 # Raw library messages that must never reach a user.
 RAW_ERRORS = ["json.exception", "std::bad_alloc", "basic_string", "stod", "stoi", "filesystem error",
               "terminate called", "Segmentation", "what():", "yaml-cpp"]
+# Sanitizer reports (scripts/test-sanitize.sh): caught by their text too, not only by the exit
+# status the script gives them, since an error status of 1 would pass as an expected failure.
+SANITIZER_REPORTS = ["ERROR: AddressSanitizer", "ERROR: LeakSanitizer", "runtime error:"]
 
 TINY_FIT = ["--quiet", "--no-plots",
             "--set", "resolution.levels=1", "--set", "resolution.coarse_cells_across=2",
@@ -646,7 +649,17 @@ def limit_memory():
     resource.setrlimit(resource.RLIMIT_AS, (MEMORY_CAP_BYTES, MEMORY_CAP_BYTES))
 
 
-def run_case(case, twill, scratch, keep):
+def asan_memory_cap(asan_options):
+    """ASAN_OPTIONS that put the memory cap on a program built with AddressSanitizer, which
+    reserves terabytes of address space for its shadow memory at start, so RLIMIT_AS cannot apply.
+    ASan's allocator applies the cap instead: one allocation or a resident size past it fails
+    (returns null, so `new` throws) as it would under RLIMIT_AS."""
+    cap_mb = MEMORY_CAP_BYTES // 1024**2
+    cap = f"max_allocation_size_mb={cap_mb}:soft_rss_limit_mb={cap_mb}:allocator_may_return_null=1"
+    return f"{asan_options}:{cap}" if asan_options else cap
+
+
+def run_case(case, twill, scratch, keep, asan):
     case_dir = tempfile.mkdtemp(prefix="case-", dir=scratch)
     work = os.path.join(case_dir, "work")
     os.makedirs(work)
@@ -655,11 +668,14 @@ def run_case(case, twill, scratch, keep):
     before = snapshot(case_dir)
     argv = [a.replace("{ds}", os.path.join(work, "ds")).replace("{w}", work) for a in case.argv]
     env = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1")
+    if asan:
+        env["ASAN_OPTIONS"] = asan_memory_cap(env.get("ASAN_OPTIONS", ""))
     problems = []
     start = time.time()
     try:
         p = subprocess.run([twill] + argv, cwd=work, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-                           stderr=subprocess.STDOUT, timeout=TIMEOUT_S, preexec_fn=limit_memory, env=env)
+                           stderr=subprocess.STDOUT, timeout=TIMEOUT_S, preexec_fn=None if asan else limit_memory,
+                           env=env)
         status, output = p.returncode, p.stdout.decode("utf-8", "replace")
     except subprocess.TimeoutExpired:
         status, output = None, ""
@@ -685,6 +701,9 @@ def run_case(case, twill, scratch, keep):
         for raw in RAW_ERRORS:
             if raw in output:
                 problems.append(f"raw library message '{raw}'")
+        for report in SANITIZER_REPORTS:
+            if report in output:
+                problems.append(f"sanitizer report '{report}'")
     # Restore permissions a case took away before looking (and cleaning up).
     for dirpath, dirnames, _ in os.walk(case_dir):
         for d in dirnames:
@@ -712,6 +731,8 @@ def main():
     parser.add_argument("--only", default="", help="run only cases whose name contains this")
     parser.add_argument("--keep", action="store_true", help="keep the scratch folders")
     parser.add_argument("--list", action="store_true", help="list the cases and exit")
+    parser.add_argument("--asan", action="store_true",
+                        help="twill is built with AddressSanitizer: cap memory through ASan, not RLIMIT_AS")
     parser.add_argument("--jobs", type=int, default=2, help="cases run at the same time (default 2)")
     args = parser.parse_args()
     cases = [c for c in all_cases() if args.only in c.name]
@@ -734,7 +755,7 @@ def main():
             else:
                 runnable.append(case)
         with concurrent.futures.ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
-            results = pool.map(lambda c: (c, run_case(c, twill, scratch, args.keep)), runnable)
+            results = pool.map(lambda c: (c, run_case(c, twill, scratch, args.keep, args.asan)), runnable)
             for case, (problems, elapsed, output) in results:
                 if problems:
                     failed.append(case.name)
