@@ -13,7 +13,7 @@
 //      run's peak force dropped (relative errors of near-zero forces are noise), at most
 //      `data.max_points` [20] points evenly spread over the rest;
 //   1. initial guess (§5.3): stiffnesses from the small-strain slopes, then the uniform-strain
-//      model of the strip fitted per stage with `initial_guess.optimizer` [gauss-newton]; its
+//      model of the strip fitted per stage with `initial_guess.optimizer` [gauss-newton, a registry component]; its
 //      agreement with the full shell solve at the guess is measured and reported;
 //   2.–6. stages (§5.2): warp → a11, η1; weft → a22, η3; cutoffs Ẽ11max, Ẽ22max =
 //      `stages.cutoff_fraction` [95 %] of the largest strains seen; bias → G12, η4; Ẽ12max = 95 % of the largest shear seen;
