@@ -1,5 +1,6 @@
 #include "experiments/predictors.hpp"
 
+#include <algorithm>
 #include <stdexcept>
 
 #include "core/discretization.hpp"
@@ -40,9 +41,16 @@ TensilePredictor::TensilePredictor(std::string label, const TensileSetup& setup,
   check_measured(label_, extensions_mm_.size(), measured_, "extensions");
 }
 
+void TensilePredictor::use_angle_sensitivity(bool on) {
+  if (on == angle_sensitivity_on_) return;  // the turned meshes are built once, kept while on
+  experiment_.set_angle_sensitivity(on);
+  angle_sensitivity_on_ = on;
+}
+
 bool TensilePredictor::predict(const MaterialParameters& k, const std::vector<int>& flat,
                                Eigen::VectorXd* values, Eigen::MatrixXd* jacobian,
                                std::string* message) {
+  use_angle_sensitivity(false);
   experiment_.set_parameters(k);
   experiment_.set_sensitivity_parameters(jacobian ? flat : std::vector<int>{});
   experiment_.set_keep_states(jacobian != nullptr && warm_start_);
@@ -103,10 +111,9 @@ ExperimentRun TensilePredictor::simulate(const MaterialParameters& k) {
   experiment_.set_parameters(k);
   experiment_.set_sensitivity_parameters({});
   experiment_.set_keep_states(false);
-  experiment_.set_angle_sensitivity(report_angle_derivative_);
+  use_angle_sensitivity(report_angle_derivative_);
   const TensileCurve curve = experiment_.run(
       extensions_mm_, [this](int, const Eigen::VectorXd& q, const EquilibriumSolver&) { last_q_ = q; });
-  experiment_.set_angle_sensitivity(false);
   for (const TensilePoint& p : curve.points) solves_ += 1 + p.solve.fallbacks;
   ExperimentRun run;
   run.completed = curve.completed;
@@ -122,7 +129,7 @@ ExperimentRun TensilePredictor::simulate(const MaterialParameters& k) {
     dforce_dangle.push_back(curve.points[i].dforce_dangle);
   }
   run.extras.emplace_back("lateral_strain", std::move(lateral));
-  if (report_angle_derivative_) run.extras.emplace_back("dforce_dangle_N_per_deg", std::move(dforce_dangle));
+  if (report_angle_derivative_) run.extras.emplace_back(kAngleDerivativeColumn, std::move(dforce_dangle));
   return run;
 }
 
@@ -140,7 +147,9 @@ bool TensilePredictor::predict_setup_derivatives(const MaterialParameters& k, co
     return false;
   }
   *values = run.values;
-  const std::vector<double>& d = run.extras.back().second;  // dforce_dangle_N_per_deg
+  const auto d_extra = std::find_if(run.extras.begin(), run.extras.end(),
+                                    [](const auto& e) { return e.first == kAngleDerivativeColumn; });
+  const std::vector<double>& d = d_extra->second;
   jacobian->resize(run.values.size(), static_cast<Eigen::Index>(quantities.size()));
   for (Eigen::Index c = 0; c < jacobian->cols(); ++c)
     jacobian->col(c) = Eigen::Map<const Eigen::VectorXd>(d.data(), static_cast<Eigen::Index>(d.size()));

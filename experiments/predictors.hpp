@@ -44,6 +44,8 @@ class TensilePredictor : public Experiment {
   bool last_surface(Eigen::MatrixXd* V, Eigen::MatrixXi* F) const override;
   /// simulate() also reports dF/dθ per point (the validation experiment, paper §7).
   void set_report_angle_derivative(bool on) { report_angle_derivative_ = on; }
+  /// The extra column of simulate() with report_angle_derivative.
+  static constexpr const char* kAngleDerivativeColumn = "dforce_dangle_N_per_deg";
 
   std::string label() const override { return label_; }
   const Eigen::VectorXd& measured() const override { return measured_; }
@@ -65,6 +67,9 @@ class TensilePredictor : public Experiment {
   Eigen::VectorXd measured_;
   bool warm_start_ = true;
   bool report_angle_derivative_ = false;
+  bool angle_sensitivity_on_ = false;  ///< whether experiment_ holds its turned meshes
+  /// Turns the engine's angle sensitivity on or off, rebuilding nothing when it already is.
+  void use_angle_sensitivity(bool on);
   long solves_ = 0;
   TensileCurve last_curve_;
   Eigen::VectorXd last_q_;  ///< the last simulate()'s final equilibrium (last_surface)
