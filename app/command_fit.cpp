@@ -15,6 +15,7 @@
 
 #include <filesystem>
 #include <iostream>
+#include <regex>
 
 #include "app/commands.hpp"
 #include "app/python_script.hpp"
@@ -33,11 +34,19 @@ struct FitArgs {
   bool quiet = false, print_config = false, no_plots = false, force = false;
 };
 
-// Where a config key got its value: the last --set of it, else the config file, else the
-// defaults (whose limits are the schema's).
+// `key` with every list index written [*] (protocol[8].cells_along -> protocol[*].cells_along).
+std::string with_every_index(const std::string& key) {
+  static const std::regex index(R"(\[[0-9]+\])");
+  return std::regex_replace(key, index, "[*]");
+}
+
+// Where a config key got its value: the last --set of it (or of the key in every list entry,
+// list[*].key), else the config file, else the defaults (whose limits are the schema's).
 InputLocation config_key_location(const FitArgs& args, const std::string& key) {
+  const std::string every = with_every_index(key);
   for (auto it = args.sets.rbegin(); it != args.sets.rend(); ++it)
-    if (it->rfind(key + "=", 0) == 0 || it->rfind(key + " =", 0) == 0) return {"--set", 0, key};
+    for (const std::string& k : {key, every})
+      if (it->rfind(k + "=", 0) == 0 || it->rfind(k + " =", 0) == 0) return {"--set", 0, k};
   return {args.config.empty() ? "default config" : args.config, 0, key};
 }
 
@@ -73,7 +82,9 @@ void run(Context& context, const FitArgs& args) {
   if (args.dataset.empty()) throw InputError({"", 0, "DATASET"}, "twill fit needs a dataset folder");
   // Bad data, impossible sizes and an unacceptable OUTDIR fail before any work.
   const Dataset dataset = read_dataset(args.dataset);
-  check_fit_sizes(dataset, config, [&](const std::string& key) { return config_key_location(args, key); });
+  const ConfigKeyLocator locate = [&](const std::string& key) { return config_key_location(args, key); };
+  check_fit_sizes(dataset, config, locate);
+  check_fit_protocol(dataset, config, context.registry, locate);
   FitOutputFolder folder(args.out.empty() ? default_fit_folder(dataset.name) : std::filesystem::path(args.out),
                          dataset.folder, args.force);
 

@@ -4,6 +4,7 @@
 #include "discretizations/triangle_shell/register_triangle_shell.hpp"
 #include "effects/register_effects.hpp"
 #include "experiments/register_experiments.hpp"
+#include "fitting/fit_stage.hpp"
 #include "optimizers/register_optimizers.hpp"
 
 namespace twill {
@@ -15,6 +16,7 @@ void register_program(Registry& registry) {
   register_optimizers(registry);
   register_experiments(registry);
   register_effects(registry);
+  register_fit_stages(registry);
   // -------------------------------------------------------------------------------------------
 }
 

@@ -160,7 +160,11 @@ OptionValue absent_value(const OptionSpec& spec, const InputLocation& where, con
       const auto& name = std::get<std::string>(spec.default_value);
       return component_defaults(spec.category, name, here, registry);
     }
-    case OptionType::ComponentList: return std::vector<ComponentChoice>{};
+    case OptionType::ComponentList: {
+      if (spec.default_items_yaml.empty()) return std::vector<ComponentChoice>{};
+      const YamlValue items = load_yaml_string(spec.default_items_yaml, spec.default_items_source);
+      return resolve_value(spec, items, registry);
+    }
   }
   return {};
 }
@@ -185,6 +189,7 @@ Options resolve_in(const OptionSchema& schema, YamlMap* map, const InputLocation
 struct PathSegment {
   std::string name;
   std::optional<std::size_t> index;
+  bool every = false;  ///< name[*]: every entry of a component list that has the next key
 };
 
 std::vector<PathSegment> parse_path(const std::string& path) {
@@ -198,9 +203,12 @@ std::vector<PathSegment> parse_path(const std::string& path) {
     if (bracket != std::string::npos) {
       const auto close = part.find(']', bracket);
       const std::string digits = close == std::string::npos ? "" : part.substr(bracket + 1, close - bracket - 1);
-      if (close != part.size() - 1 || digits.empty() || digits.find_first_not_of("0123456789") != std::string::npos)
-        throw InputError({kOverrideSource, 0, path}, "malformed key path: '" + part + "' (expected name or name[i])");
-      seg.index = static_cast<std::size_t>(std::stoull(digits));
+      seg.every = digits == "*";
+      if (close != part.size() - 1 || digits.empty() ||
+          (!seg.every && digits.find_first_not_of("0123456789") != std::string::npos))
+        throw InputError({kOverrideSource, 0, path},
+                         "malformed key path: '" + part + "' (expected name, name[i] or name[*])");
+      if (!seg.every) seg.index = static_cast<std::size_t>(std::stoull(digits));
       part = part.substr(0, bracket);
     }
     if (part.empty()) throw InputError({kOverrideSource, 0, path}, "malformed key path: empty key");
@@ -222,6 +230,7 @@ struct Override {
     for (std::size_t k = 0; k <= i; ++k) {
       p = join_key_path(p, segments[k].name);
       if (segments[k].index) p += "[" + std::to_string(*segments[k].index) + "]";
+      if (segments[k].every) p += "[*]";
     }
     return p;
   }
@@ -242,12 +251,28 @@ struct Override {
     apply(c.options, entry.options, i + 1);
   }
 
+  /// list[*].key=value: the key of every entry that has it (a list of stages of several kinds
+  /// sets one rule in each stage that has it); an error when none has it.
+  void apply_to_every(std::vector<ComponentChoice>& list, std::size_t i) const {
+    if (i + 1 == segments.size()) throw error(i, "[*] needs a key after it, e.g. " + segments[i].name + "[*].key=value");
+    const PathSegment& next = segments[i + 1];
+    if (next.name == "name") throw error(i + 1, "[*] cannot switch every entry's implementation; address one as [i]");
+    std::size_t applied = 0;
+    for (ComponentChoice& c : list) {
+      const RegistryEntry& entry = entry_named(c.category, c.name, {kOverrideSource, 0, path_to(i)}, registry);
+      if (!entry.options.find(next.name)) continue;
+      apply(c.options, entry.options, i + 1);
+      ++applied;
+    }
+    if (applied == 0) throw error(i + 1, "no entry of " + segments[i].name + " has this key");
+  }
+
   void apply(Options& options, const OptionSchema& schema, std::size_t i) const {
     const PathSegment& seg = segments[i];
     const OptionSpec* spec = schema.find(seg.name);
     if (!spec) throw error(i, "unknown key (known keys here: " + schema.names() + ")");
     const bool last = i + 1 == segments.size();
-    if (seg.index && spec->type != OptionType::ComponentList)
+    if ((seg.index || seg.every) && spec->type != OptionType::ComponentList)
       throw error(i, std::string("is of type ") + to_string(spec->type) + ", not a list of components: no [index]");
     OptionValue& slot = options.value(seg.name);
     switch (spec->type) {
@@ -257,6 +282,7 @@ struct Override {
       case OptionType::Component: return apply_to_component(std::get<ComponentChoice>(slot), i);
       case OptionType::ComponentList: {
         auto& list = std::get<std::vector<ComponentChoice>>(slot);
+        if (seg.every) return apply_to_every(list, i);
         if (!seg.index && last) {  // the whole list, as YAML: effects=[misalignment, {name: x, k: 1}]
           const YamlValue parsed = load_yaml_string(text, kOverrideSource);
           slot = resolve_value(*spec, YamlValue(parsed.node(), kOverrideSource, path_to(i)), registry);
@@ -583,6 +609,13 @@ OptionSpec& OptionSpec::choices(std::vector<std::string> values) {
   return checked(*this);
 }
 
+OptionSpec& OptionSpec::default_items(std::string yaml, std::string source) {
+  if (type != OptionType::ComponentList) throw std::logic_error(name + ": default_items is for component lists");
+  default_items_yaml = std::move(yaml);
+  default_items_source = std::move(source);
+  return *this;
+}
+
 OptionSpec& OptionSpec::non_empty() {
   if (type != OptionType::DoubleList && type != OptionType::ComponentList && type != OptionType::String)
     throw std::logic_error("option schema: non_empty on '" + name + "', a " + to_string(type));
@@ -631,7 +664,7 @@ std::string OptionSpec::default_text() const {
     case OptionType::DoubleList: return list_text(std::get<std::vector<double>>(default_value));
     case OptionType::Section: return "(section)";
     case OptionType::Component: return std::get<std::string>(default_value);
-    case OptionType::ComponentList: return "[]";
+    case OptionType::ComponentList: return default_items_yaml.empty() ? "[]" : "(" + default_items_source + ")";
   }
   return "";
 }

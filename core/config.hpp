@@ -20,6 +20,7 @@
 //                   means the default implementation with one option changed.
 //   component list  a list of components (e.g. the effects of an extended model):
 //                       effects: [{name: sag, strength: 0.1}, thermal]
+//                   its default is empty or a YAML list (OptionSpec::default_items).
 //
 // Example (a command's config schema):
 //
@@ -176,6 +177,9 @@ struct OptionSpec {
   std::vector<std::string> allowed;    ///< String choices (empty: any text)
   std::size_t min_items = 0;           ///< DoubleList / ComponentList
   std::string category;                ///< Component, ComponentList
+  /// ComponentList: the default list as YAML, resolved like a config's (empty: []), and
+  /// the name its errors give as the file (e.g. the embedded default protocol's).
+  std::string default_items_yaml, default_items_source;
   std::shared_ptr<OptionSchema> section;  ///< Section
 
   OptionSpec& at_least(double lo);
@@ -185,6 +189,8 @@ struct OptionSpec {
   OptionSpec& range(double lo, double hi);  ///< closed interval [lo, hi]
   OptionSpec& choices(std::vector<std::string> values);
   OptionSpec& non_empty();  ///< lists: at least one item; strings: not empty
+  /// A component list's default items, as YAML text (`source` names it in errors).
+  OptionSpec& default_items(std::string yaml, std::string source);
   /// No default: the config must give the option (missing → InputError).
   OptionSpec& required();
 
@@ -214,7 +220,8 @@ Options read_config_file(const std::string& path, const OptionSchema& schema, co
 /// Applies one `--set key.path=value` override to a resolved config, with the same type,
 /// range and choice checks as a file. Key paths use dots for sections and components and
 /// [i] for component lists: `solver.tolerance=1e-10`, `optimizer.max_iterations=20`,
-/// `effects[0].strength=0.2`; a whole component list is set as YAML: `effects=[misalignment]`. Values are YAML: `true`, `3`, `[0.1, 0.2]`; strings are taken
+/// `effects[0].strength=0.2`; [*] sets the key in every entry that has it
+/// (`protocol[*].max_degree=1`, an error when none has it); a whole component list is set as YAML: `effects=[misalignment]`. Values are YAML: `true`, `3`, `[0.1, 0.2]`; strings are taken
 /// verbatim. Setting a component's name (`optimizer=gauss-newton` or `optimizer.name=...`)
 /// switches the implementation and resets its options to that implementation's defaults
 /// (so give the name before its options). Errors are InputErrors with file "--set".

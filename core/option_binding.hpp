@@ -141,6 +141,20 @@ OptionBinding<Struct> choice_option(std::string name, std::string Struct::*field
   return b;
 }
 
+/// Free text, not empty (a label that other entries refer to, e.g. a fit stage's "warp").
+template <class Struct>
+OptionBinding<Struct> text_option(std::string name, std::string Struct::*field, std::string doc) {
+  OptionBinding<Struct> b;
+  b.name = name;
+  b.doc = std::move(doc);
+  b.declare = [name, field](OptionSchema& s, const Struct& d, const std::string& line) {
+    s.add_string(name, d.*field, line).non_empty();
+  };
+  b.get = [field](const Struct& o) { return OptionValue(o.*field); };
+  b.set = [field](Struct& o, const OptionValue& v) { o.*field = std::get<std::string>(v); };
+  return b;
+}
+
 /// A choice stored as an enum: `names` pairs each allowed text with its enumerator (the one
 /// list of the enum's names; a value missing from it reads as "<unnamed>" and fails the check).
 template <class Struct, class Enum>

@@ -76,6 +76,7 @@ inline constexpr const char* kDiscretization = "discretization";
 inline constexpr const char* kOptimizer = "optimizer";
 inline constexpr const char* kExperiment = "experiment";
 inline constexpr const char* kEffect = "effect";
+inline constexpr const char* kStage = "stage";  ///< a kind of fit stage (fitting/fit_stage.hpp)
 }  // namespace registry_category
 
 /// What the registry knows about one implementation, independent of its factory type.

@@ -106,6 +106,13 @@ const char* to_string(RepeatRule rule) {
   return "";
 }
 
+std::vector<std::pair<std::string, RepeatRule>> repeat_rule_names() {
+  std::vector<std::pair<std::string, RepeatRule>> names;
+  for (RepeatRule r : {RepeatRule::Paper, RepeatRule::Largest, RepeatRule::Random, RepeatRule::All})
+    names.emplace_back(to_string(r), r);
+  return names;
+}
+
 RepeatRule repeat_rule_from_string(const std::string& name) {
   for (RepeatRule r : {RepeatRule::Paper, RepeatRule::Largest, RepeatRule::Random, RepeatRule::All})
     if (name == to_string(r)) return r;

@@ -37,6 +37,8 @@ enum class RepeatRule {
 const char* to_string(RepeatRule rule);
 /// Parses the names above; throws InputError listing them otherwise.
 RepeatRule repeat_rule_from_string(const std::string& name);
+/// Every rule with its name (for option bindings: enum_option).
+std::vector<std::pair<std::string, RepeatRule>> repeat_rule_names();
 
 struct RepeatSelection {
   std::vector<std::size_t> runs;  ///< indices into TensileTest::runs, ascending

@@ -22,14 +22,6 @@ void check_fit_sizes(const Dataset& dataset, const Options& config, const Config
                            "] (" + t.label + ", " + format_double(t.width_mm) + " x " +
                            format_double(t.gauge_length_mm) + " mm): " + violation);
   }
-  const Options& bend = config.get_section("bend");
-  // Checked even when the dataset has no bend test: the key is wrong either way.
-  const double bend_across = static_cast<double>(bend.get_int("cells_across"));
-  const double bend_along = static_cast<double>(bend.get_int("cells_along"));
-  const std::string violation = mesh_size_violation(bend_across, bend_along);
-  if (!violation.empty())
-    throw InputError(locate(bend_across > bend_along ? "bend.cells_across" : "bend.cells_along"),
-                     "the cantilever: " + violation);
 }
 
 }  // namespace twill

@@ -3,7 +3,8 @@
 // before any work (issue #13): every strip the protocol will simulate must fit the memory
 // limit of core/input_limits.hpp. The config schema bounds each key alone; only here are the
 // finest level's cells (coarse_cells_across · 2^(levels−1) across, × gauge/width along, as
-// the protocol's resolution ladder builds them) and the cantilever's cells known.
+// the protocol's resolution ladder builds them) known; the cantilever's cells are the bend
+// stage's own check (fitting/stages/bend.cpp, run by check_fit_protocol).
 #include <functional>
 #include <string>
 

@@ -7,44 +7,21 @@
 // predictors, a discretisation and an optimiser chosen by name from the registry), so it fits
 // none of them (architecture.md allows such a folder).
 //
-// The protocol, every choice a config key (fit_config_schema(); defaults in brackets):
-//   0. data: per tensile test the repeats of §6.4 (`repeats.rule` [paper], `repeats.seed`),
-//      the loading branch of each run, points below `data.min_force_fraction` [0.005] of the
-//      run's peak force dropped (relative errors of near-zero forces are noise), at most
-//      `data.max_points` [20] points evenly spread over the rest;
-//   1. initial guess (§5.3): stiffnesses from the small-strain slopes, then the uniform-strain
-//      model of the strip fitted per stage with `initial_guess.optimizer` [gauss-newton, a registry component]; its
-//      agreement with the full shell solve at the guess is measured and reported;
-//   2.–6. stages (§5.2): warp → a11, η1; weft → a22, η3; cutoffs Ẽ11max, Ẽ22max =
-//      `stages.cutoff_fraction` [95 %] of the largest strains seen; bias → G12, η4; Ẽ12max = 95 % of the largest shear seen;
-//      a12 = ½ min(a11, a22) throughout (§5.2);
-//      each stage raises the curve's degree from 1 (§5.4) while the average relative error is
-//      above `degree.target_error` [0.01 warp/weft; bias: ×2] and the last raise improved it by
-//      at least `degree.min_improvement` [20 %], up to `degree.max` [3]; a higher degree
-//      starts from the lower one;
-//      multiresolution (§5.5.4): the degree search and the cutoffs happen at the coarsest
-//      level (stages in the paper's order); then every level, the coarsest first, refits warp,
-//      weft and bias at their chosen degrees from the previous solution, with all cutoffs in
-//      place; the cutoffs' "largest strain seen" is
-//      sampled on the finest level's simulated strips at the largest measured extension; levels are
-//      `resolution.coarse_cells_across` [8] × gauge/width·that along, doubled
-//      `resolution.levels` − 1 [2] times (8×12 → 16×24 → 32×48 for 75 mm gauges,
-//      8×24 → 16×48 → 32×96 for 150 mm); per stage, the change of every fitted entry, of
-//      the membrane stiffness and of the membrane response between successive levels is
-//      reported (the fit's own estimate of its discretisation error), and a stage whose
-//      response changed by less than `resolution.change_tolerance` [3 %] skips the finer
-//      levels, while one that still changes by more at the last level gets up to
-//      `resolution.extra_levels` [0] more;
-//   7. bend (§5.2 step 7): thickness τ from the cantilever chord angles at the measured
-//      overhangs, with a ← a·τ0/τ so the tensile fits are unchanged;
-//   8. validation (§7): per validation run at the finest level, the angle offset Δθ
-//      minimising its error by a 1-D Newton search (the exact dF/dθ at the nominal angle, the
-//      secant through the last two samples after that; strips at an offset are warm-started
-//      from the nominal strip's q + Δθ dq/dθ), at most
-//      `validation.offset_iterations` [3] steps, each minimising the linearised error exactly,
-//      within ±`validation.max_offset_deg` [10°] and rounded to
-//      `validation.offset_resolution_deg` [0.05°]; the error with the best offset and without
-//      any are reported.
+// The protocol is data (issue #14 item 3): the fit config (fitting/fit_config.hpp) holds the
+// fit-wide choices and `protocol`, a list of stage specifications run in order — by default
+// the paper's, fitting/protocols/paper.yaml, which `twill fit --print-config` prints resolved.
+// Each stage kind is a registered part (fitting/fit_stage.hpp, fitting/stages/):
+//   initial-guess      §5.3   uniform-strain fits from the small-strain slopes
+//   tensile-curve      §5.2, §5.4  one term of ψ fitted to the strips at one angle, degree raised
+//   strain-cutoff      §5.2 steps 4, 6  a curve stage's cutoff at a fraction of the largest strain seen
+//   resolution-ladder  §5.5.4  every level refits the curve stages before it, while they change
+//   bend               §5.2 step 7  the thickness from the cantilever chord angles
+//   final-curves              every fit run at the final parameters, finest level
+//   validation         §7     the off-axis strips with their angle offsets Δθ
+// Before the stages: the repeats of §6.4 per tensile test (`repeats`), each run's loading
+// branch thinned (`data`), and the start of §5.3 from the small-strain slopes; after them,
+// the effects' parameters (fitting/fit_effects.hpp). The report is the stages' reports, merged
+// in order, with each stage's time. docs/fitting.md has the details and the measurements.
 #include <Eigen/Core>
 #include <functional>
 #include <map>
@@ -55,11 +32,10 @@
 #include "core/dataset.hpp"
 #include "core/parameters.hpp"
 #include "core/registry.hpp"
+#include "fitting/fit_config.hpp"
+#include "fitting/fit_input_checks.hpp"
 
 namespace twill {
-
-/// The schema of a fit config (components resolved through the registry).
-OptionSchema fit_config_schema();
 
 /// One line of progress (stage, resolution, iteration, current error). `level` 0 = stage
 /// boundaries, 1 = iterations.
@@ -150,6 +126,12 @@ double linearised_l1_minimiser(const Eigen::VectorXd& f, const Eigen::VectorXd& 
 /// throw an hour of work away (write_incomplete_fit_report()).
 FitReport run_fit(const Dataset& dataset, const Options& config, const Registry& registry,
                   const FitProgress& progress, FitReport* finished = nullptr);
+
+/// The protocol's up-front checks (a stage's references to the stages before it, unique
+/// labels, each stage's own limits) for `twill fit` to run before any work; run_fit runs them
+/// too. Throws InputError located by `locate`, e.g. at "protocol[3].stage".
+void check_fit_protocol(const Dataset& dataset, const Options& config, const Registry& registry,
+                        const ConfigKeyLocator& locate);
 
 /// Writes params.yaml, report.json (with every curve, for scripts/plot_fit.py), report.md and
 /// config.yaml (the resolved config) into `dir` (created if needed). `twill fit` writes into a

@@ -207,6 +207,38 @@ TEST_F(Config, OverridingAComponentNameResetsItsOptions) {
   EXPECT_EQ(c.get_string("dataset"), "#a: b");
 }
 
+// list[*].key sets the key in every entry that has it (a protocol's stages of several kinds),
+// and is an error when no entry has it; a component list's default may be a YAML list.
+TEST_F(Config, EveryEntryOverrideAndDefaultItems) {
+  OptionSchema with_default;
+  with_default.add_component_list("effects", registry_category::kEffect, "model extensions")
+      .default_items("[sag, thermal, {name: sag, strength: 0.1}]", "the default effects");
+  Options c = default_options(with_default, &registry);
+  ASSERT_EQ(c.get_component_list("effects").size(), 3u);
+  EXPECT_EQ(c.get_component_list("effects")[2].options.get_double("strength"), 0.1);
+  EXPECT_EQ(with_default.find("effects")->default_text(), "(the default effects)");
+  apply_override(c, with_default, &registry, "effects[*].strength=0.75");  // thermal has no strength
+  EXPECT_EQ(c.get_component_list("effects")[0].options.get_double("strength"), 0.75);
+  EXPECT_TRUE(c.get_component_list("effects")[1].options.empty());
+  EXPECT_EQ(c.get_component_list("effects")[2].options.get_double("strength"), 0.75);
+  for (const auto& [assignment, key] : std::vector<std::pair<std::string, std::string>>{
+           {"effects[*].weight=1", "effects[*].weight"},    // no entry has it
+           {"effects[*].strength=2", "effects[*].strength"},  // out of range in the entries that have it
+           {"effects[*]=sag", "effects[*]"},                  // no key after [*]
+           {"effects[*].name=sag", "effects[*].name"}}) {
+    try {
+      apply_override(c, with_default, &registry, assignment);
+      ADD_FAILURE() << assignment << " accepted";
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.where().key, key) << assignment << ": " << e.what();
+    }
+  }
+  // A bad default is the program's error, found when the defaults are resolved.
+  OptionSchema bad;
+  bad.add_component_list("effects", registry_category::kEffect, "x").default_items("[nonexistent]", "bad default");
+  EXPECT_THROW(default_options(bad, &registry), InputError);
+}
+
 TEST_F(Config, DefaultOptionsNeedRequiredValues) {
   EXPECT_THROW(default_options(schema, &registry), InputError);  // dataset is required
   OptionSchema plain;

@@ -44,10 +44,14 @@ RAW_ERRORS = ["json.exception", "std::bad_alloc", "basic_string", "stod", "stoi"
 # status the script gives them, since an error status of 1 would pass as an expected failure.
 SANITIZER_REPORTS = ["ERROR: AddressSanitizer", "ERROR: LeakSanitizer", "runtime error:"]
 
+# Linear curves, no initial guess, cutoffs, bend or validation: the protocol as a --set list.
+TINY_PROTOCOL = "[" + ", ".join(
+    f"{{name: tensile-curve, label: {label}, angle_deg: {angle}, term: {term}, max_degree: 1, uniform_starts: false}}"
+    for label, angle, term in [("warp", 90, "eta1"), ("weft", 0, "eta3"), ("bias", 45, "eta4")]) + \
+    ", resolution-ladder, final-curves]"
 TINY_FIT = ["--quiet", "--no-plots",
             "--set", "resolution.levels=1", "--set", "resolution.coarse_cells_across=2",
-            "--set", "degree.max=1", "--set", "stages.bend=false", "--set", "stages.validation=false",
-            "--set", "stages.cutoffs=false", "--set", "initial_guess.enabled=false",
+            "--set", "protocol=" + TINY_PROTOCOL,
             "--set", "stopping.max_iterations=3", "--set", "stopping.max_evaluations=6"]
 
 RUN_CSV = "extension_mm,force_N\n" + "".join(
@@ -456,21 +460,23 @@ def config_cases():
                       setup=setup or dataset_setup()))
     add("resolution.coarse_cells_across=100000", ["--set", "resolution.coarse_cells_across=100000"],
         ["--set", "resolution.coarse_cells_across", "would need", "the limit is"], issue=True)
-    add("bend.cells_along=100000", ["--set", "bend.cells_along=100000"],
-        ["--set", "bend.cells_along", "would need", "the limit is"], issue=True)
-    add("bend.cells_across=100000", ["--set", "bend.cells_across=100000"],
-        ["--set", "bend.cells_across", "would need"], issue=True)
+    # protocol[*].key: the key in every stage that has it (only the bend stage has these).
+    add("bend cells_along=100000", ["--set", "protocol[*].cells_along=100000"],
+        ["--set", "protocol[*].cells_along", "would need", "the limit is"], issue=True)
+    add("bend cells_across=100000", ["--set", "protocol[*].cells_across=100000"],
+        ["--set", "protocol[*].cells_across", "would need"], issue=True)
+    # An int option: the schema caps it at the type's largest value before any size check.
     add("coarse_cells_across=int64max", ["--set", "resolution.coarse_cells_across=9223372036854775807"],
-        ["resolution.coarse_cells_across", "would need"])
+        ["resolution.coarse_cells_across", "2147483647"])
     add("coarse_cells_across=4000", ["--set", "resolution.coarse_cells_across=4000"], ["would need"])
     add("coarse_cells_across=100-levels5", ["--set", "resolution.coarse_cells_across=100", "--set",
                                             "resolution.levels=5"], ["tensile[0]", "would need"])
     for kv, frag in [("resolution.levels=9", "resolution.levels"), ("repeats.seed=-1", "repeats.seed"),
-                     ("degree.max=nan", "degree.max"), ("stopping.gradient_tolerance=.nan", "gradient_tolerance"),
+                     ("protocol[1].max_degree=nan", "protocol[1].max_degree"), ("stopping.gradient_tolerance=.nan", "gradient_tolerance"),
                      ("solver.gradient_tolerance=-1", "solver.gradient_tolerance"), ("optimizer=newton", "optimizer"),
-                     ("degree.maximum=2", "degree.maximum"), ("resolution.coarse_cells_across=0", "coarse_cells_across"),
+                     ("protocol[1].maximum=2", "protocol[1].maximum"), ("resolution.coarse_cells_across=0", "coarse_cells_across"),
                      ("resolution.coarse_cells_across=1.5", "coarse_cells_across"), ("data.max_points=1e99", "max_points"),
-                     ("validation.max_offset_deg=inf", "max_offset_deg"), ("noequals", "key.path=value"),
+                     ("protocol[*].max_offset_deg=inf", "max_offset_deg"), ("noequals", "key.path=value"),
                      ("resolution.coarse_cells_across=99999999999999999999", "coarse_cells_across")]:
         add(f"--set {kv}", ["--set", kv], ["--set", frag])
     add("-c-directory", ["-c", "{w}/confdir"], ["confdir", "directory"],
@@ -482,8 +488,9 @@ def config_cases():
         setup=dataset_setup(extra=lambda w: write(os.path.join(w, "c.yaml"), "optimizer: bfgs\ncolour: red\n")))
     add("-c-non-utf8", ["-c", "{w}/c.yaml"], ["c.yaml:1", "UTF-8"],
         setup=dataset_setup(extra=lambda w: write(os.path.join(w, "c.yaml"), b"optimizer: bf\xffgs\n", "wb")))
-    add("-c-huge-cells", ["-c", "{w}/c.yaml"], ["c.yaml", "bend.cells_along", "would need"],
-        setup=dataset_setup(extra=lambda w: write(os.path.join(w, "c.yaml"), "bend: {cells_along: 1000000}\n")))
+    add("-c-huge-cells", ["-c", "{w}/c.yaml"], ["c.yaml", "protocol[1].cells_along", "would need"],
+        setup=dataset_setup(extra=lambda w: write(os.path.join(w, "c.yaml"),
+                                                  "protocol: [tensile-curve, {name: bend, cells_along: 1000000}]\n")))
     return c
 
 

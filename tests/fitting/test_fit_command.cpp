@@ -10,6 +10,8 @@
 #include <sstream>
 #include <string>
 
+#include "tests/support/program_registry.hpp"
+
 namespace {
 
 namespace fs = std::filesystem;
@@ -61,9 +63,15 @@ TEST(FitCommand, ImpossibleConfigFailsBeforeAnythingIsWritten) {
 TEST(FitCommand, PrintConfigListsEveryProtocolKey) {
   const CommandResult r = twill("fit --print-config --set optimizer=ipopt");
   EXPECT_EQ(r.status, 0) << r.output;
-  for (const char* key : {"discretization:", "optimizer:", "name: \"ipopt\"", "resolution:", "degree:",
-                          "repeats:", "stages:", "validation:"})
+  for (const char* key : {"discretization:", "optimizer:", "name: \"ipopt\"", "resolution:", "repeats:", "protocol:"})
     EXPECT_NE(r.output.find(key), std::string::npos) << key << "\n" << r.output;
+  // Every stage of the default protocol, by its registered kind, with its options.
+  for (const twill::RegistryEntry& stage :
+       twill::testing::program_registry().find_category(twill::registry_category::kStage)->entries()) {
+    EXPECT_NE(r.output.find("name: \"" + stage.name + "\""), std::string::npos) << stage.name;
+    for (const twill::OptionSpec& option : stage.options.options())
+      EXPECT_NE(r.output.find(option.name + ":"), std::string::npos) << stage.name << "." << option.name;
+  }
 }
 
 }  // namespace

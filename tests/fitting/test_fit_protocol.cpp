@@ -4,6 +4,7 @@
 // that the pipeline runs and produces honest reports in a CI-sized budget.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -21,15 +22,26 @@ namespace {
 
 const Registry& registry() { return testing::program_registry(); }
 
-// A CI-sized protocol: one coarse level, few points, short cantilever, coarse Δθ search.
+// A CI-sized protocol: one coarse level, few points, short cantilever, coarse Δθ search
+// (each stage option set in every stage that has it: protocol[*]).
 Options coarse_config(const std::vector<std::string>& extra = {}) {
   const OptionSchema schema = fit_config_schema();
   Options config = default_options(schema, &registry());
   apply_overrides(config, schema, &registry(),
                   {"resolution.coarse_cells_across=4", "resolution.levels=1", "data.max_points=8",
-                   "degree.max=2", "bend.cells_across=2", "bend.cells_along=24",
-                   "bend.find_overhang=false", "validation.offset_iterations=2"});
+                   "protocol[*].max_degree=2", "protocol[*].cells_across=2", "protocol[*].cells_along=24",
+                   "protocol[*].find_overhang=false", "protocol[*].offset_iterations=2"});
   apply_overrides(config, schema, &registry(), extra);
+  return config;
+}
+
+// The config without the protocol's stages of these kinds (an ablation by config alone).
+Options without_stages(Options config, const std::vector<std::string>& kinds) {
+  std::vector<ComponentChoice> protocol = config.get_component_list("protocol");
+  std::erase_if(protocol, [&](const ComponentChoice& c) {
+    return std::find(kinds.begin(), kinds.end(), c.name) != kinds.end();
+  });
+  config.set("protocol", protocol);
   return config;
 }
 
@@ -104,13 +116,16 @@ TEST(FitProtocol, CanvasExampleEndToEndAtCoarseResolution) {
 // first comparison and the finer levels are skipped. Each comparison lists every fitted entry
 // and the membrane stiffness, and the response change is what decided.
 std::vector<std::string> tiny_ladder(const std::string& tolerance, const std::string& levels) {
-  return {"resolution.coarse_cells_across=2", "resolution.levels=" + levels, "resolution.change_tolerance=" + tolerance,
-          "resolution.extra_levels=1", "stages.validation=false", "stages.bend=false", "degree.max=1"};
+  return {"resolution.coarse_cells_across=2", "resolution.levels=" + levels,
+          "protocol[*].change_tolerance=" + tolerance, "protocol[*].extra_levels=1", "protocol[*].max_degree=1"};
+}
+Options tiny_ladder_config(const std::string& tolerance, const std::string& levels) {
+  return without_stages(coarse_config(tiny_ladder(tolerance, levels)), {"bend", "validation"});
 }
 
 TEST(FitProtocol, LadderRefinesWhileTheResponseChangesAndSaysSo) {
   const Dataset dataset = read_dataset(std::string(TWILL_SOURCE_DIR) + "/examples/canvas");
-  const FitReport report = run_fit(dataset, coarse_config(tiny_ladder("0", "2")), registry(), {});
+  const FitReport report = run_fit(dataset, tiny_ladder_config("0", "2"), registry(), {});
   ASSERT_EQ(report.refinement.size(), 6u);  // 3 stages × (4×6 vs 2×3, 8×12 vs 4×6)
   EXPECT_EQ(report.finest_resolution, "8x12");
   for (size_t i = 0; i < 3; ++i) {
@@ -120,7 +135,7 @@ TEST(FitProtocol, LadderRefinesWhileTheResponseChangesAndSaysSo) {
     EXPECT_EQ(first.to_resolution, "4x6");
     EXPECT_EQ(first.decision, "above tolerance at the last level: one more level");
     EXPECT_EQ(extra.to_resolution, "8x12");
-    EXPECT_EQ(extra.decision, "above tolerance, no level left (resolution.extra_levels)");
+    EXPECT_EQ(extra.decision, "above tolerance, no level left (extra_levels)");
     EXPECT_GT(first.response_change, 0.0);
     ASSERT_GE(first.changes.size(), 2u);
     EXPECT_EQ(first.changes.back().name.rfind("tau_", 0), 0u) << first.changes.back().name;
@@ -132,7 +147,7 @@ TEST(FitProtocol, LadderRefinesWhileTheResponseChangesAndSaysSo) {
 
 TEST(FitProtocol, LadderSkipsTheFinerLevelsOfASettledStage) {
   const Dataset dataset = read_dataset(std::string(TWILL_SOURCE_DIR) + "/examples/canvas");
-  const FitReport report = run_fit(dataset, coarse_config(tiny_ladder("1", "3")), registry(), {});
+  const FitReport report = run_fit(dataset, tiny_ladder_config("1", "3"), registry(), {});
   ASSERT_EQ(report.refinement.size(), 3u);  // one comparison each, then settled
   for (const FitRefinement& r : report.refinement) {
     EXPECT_EQ(r.to_resolution, "4x6");
@@ -158,11 +173,12 @@ TEST(FitProtocol, ImpossibleConfigIsAnInputErrorNamingTheKey) {
   const OptionSchema schema = fit_config_schema();
   Options config = default_options(schema, &registry());
   try {
-    apply_override(config, schema, &registry(), "degree.max=0");
-    FAIL() << "degree.max=0 accepted";
+    apply_override(config, schema, &registry(), "protocol[1].max_degree=0");
+    FAIL() << "protocol[1].max_degree=0 accepted";
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("degree.max"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("protocol[1].max_degree"), std::string::npos) << e.what();
   }
+  EXPECT_THROW(apply_override(config, schema, &registry(), "protocol[*].no_such_option=1"), InputError);
   EXPECT_THROW(apply_override(config, schema, &registry(), "optimizer=newton"), InputError);
   EXPECT_THROW(apply_override(config, schema, &registry(), "resolution.cells=3"), InputError);
 }
@@ -183,6 +199,72 @@ TEST(FitProtocol, DatasetWithoutWarpTestIsAnInputError) {
   Dataset d = read_dataset(std::string(TWILL_SOURCE_DIR) + "/examples/canvas");
   std::erase_if(d.tensile, [](const TensileTest& t) { return t.angle_deg == 90.0; });
   EXPECT_THROW(run_fit(d, coarse_config(), registry(), {}), InputError);
+}
+
+}  // namespace
+}  // namespace twill
+
+namespace twill {
+namespace {
+
+// The protocol is data (issue #14 item 3): the default is the embedded paper protocol, and the
+// resolved config `twill fit --print-config` prints reads back, as a -c file, to the same config.
+TEST(FitProtocolAsData, PrintedConfigReadsBackToTheSameConfig) {
+  const OptionSchema schema = fit_config_schema();
+  const Options defaults = default_options(schema, &registry());
+  const auto& protocol = defaults.get_component_list("protocol");
+  const YamlValue paper = load_yaml_string(paper_protocol_yaml(), "paper.yaml");
+  ASSERT_EQ(protocol.size(), paper.items().size());
+  for (size_t i = 0; i < protocol.size(); ++i) {
+    EXPECT_EQ(protocol[i].category, registry_category::kStage);
+    EXPECT_EQ(protocol[i].name, YamlMap(paper.items()[i]).get("name").as_string()) << i;
+  }
+  const std::filesystem::path file = std::filesystem::temp_directory_path() / "twill-printed-config.yaml";
+  write_config_file(defaults, file.string());
+  EXPECT_EQ(read_config_file(file.string(), schema, &registry()), defaults);
+  std::filesystem::remove(file);
+}
+
+TEST(FitProtocolAsData, StageReferringToALaterStageIsAnInputErrorNamingItsKey) {
+  const Dataset dataset = read_dataset(std::string(TWILL_SOURCE_DIR) + "/examples/canvas");
+  const OptionSchema schema = fit_config_schema();
+  Options config = default_options(schema, &registry());
+  apply_override(config, schema, &registry(), "protocol[3].stage=bias");  // bias is fitted after it
+  try {
+    check_fit_protocol(dataset, config, registry(), [](const std::string& key) { return InputLocation{"c.yaml", 0, key}; });
+    FAIL() << "accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.where().key, "protocol[3].stage") << e.what();
+    EXPECT_NE(std::string(e.what()).find("'bias'"), std::string::npos) << e.what();
+  }
+  Options no_warp = without_stages(default_options(schema, &registry()), {"strain-cutoff"});
+  std::vector<ComponentChoice> protocol = no_warp.get_component_list("protocol");
+  protocol.erase(protocol.begin() + 1);  // the warp stage: nothing fits a11
+  no_warp.set("protocol", protocol);
+  EXPECT_THROW(check_fit_protocol(dataset, no_warp, registry(), [](const std::string& k) { return InputLocation{"", 0, k}; }),
+               InputError);
+}
+
+// Ablations by config alone: without the initial guess the fit starts from the slopes (no
+// uniform-strain records); without the strain-cutoff stages no cutoff is set; the stages'
+// records and timings follow the protocol.
+TEST(FitProtocolAsData, AblationsByConfigAlone) {
+  const Dataset dataset = read_dataset(std::string(TWILL_SOURCE_DIR) + "/examples/canvas");
+  const Options config = without_stages(tiny_ladder_config("1", "1"), {"initial-guess", "strain-cutoff"});
+  const FitReport report = run_fit(dataset, config, registry(), {});
+  EXPECT_TRUE(report.initial_guess.empty());
+  EXPECT_FALSE(report.parameters.cutoffs.E11_max);
+  EXPECT_FALSE(report.parameters.cutoffs.E22_max);
+  EXPECT_FALSE(report.parameters.cutoffs.E12_max);
+  ASSERT_FALSE(report.stages.empty());
+  EXPECT_EQ(report.stages.front().stage, "warp");
+  EXPECT_EQ(report.parameters.eta1.degree(), 1);
+  std::vector<std::string> titles;
+  for (const auto& [title, seconds] : report.timing_s) titles.push_back(title);
+  for (const char* title : {"warp (degree, coarsest level)", "resolution ladder", "final curves", "total"})
+    EXPECT_NE(std::find(titles.begin(), titles.end(), title), titles.end()) << title;
+  EXPECT_EQ(std::find(titles.begin(), titles.end(), "initial_guess"), titles.end());
+  EXPECT_EQ(report.fit.size(), 3u);
 }
 
 }  // namespace

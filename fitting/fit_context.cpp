@@ -1,0 +1,234 @@
+#include "fitting/fit_context.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <stdexcept>
+
+#include "core/discretization_registry.hpp"
+#include "core/input_error.hpp"
+
+namespace twill {
+
+double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+double mean(const std::vector<double>& v) {
+  return v.empty() ? 0.0 : std::accumulate(v.begin(), v.end(), 0.0) / static_cast<double>(v.size());
+}
+
+double mean_run_error(const FitObjective& objective, size_t n) {
+  std::vector<double> e;
+  for (size_t i = 0; i < n; ++i) e.push_back(objective.average_relative_error(static_cast<int>(i)));
+  return mean(e);
+}
+
+RunData measured_points(const TensileTest& test, const TensileRun& run, const FitDataSelection& data) {
+  const double peak_force =
+      *std::max_element(run.force_N.begin(), run.force_N.begin() + static_cast<long>(run.peak_index) + 1);
+  const double floor = data.min_force_fraction * peak_force;
+  std::vector<size_t> keep;
+  double last_extension = -1e300;
+  for (size_t i = 0; i <= run.peak_index; ++i)
+    if (run.force_N[i] > floor && run.force_N[i] > 0 && run.extension_mm[i] > 0 &&
+        run.extension_mm[i] > last_extension) {
+      keep.push_back(i);
+      last_extension = run.extension_mm[i];
+    }
+  const size_t max_points = static_cast<size_t>(data.max_points);
+  std::vector<size_t> chosen;
+  if (keep.size() <= max_points) {
+    chosen = keep;
+  } else {
+    for (size_t j = 0; j < max_points; ++j) chosen.push_back(keep[(j * (keep.size() - 1)) / (max_points - 1)]);
+  }
+  RunData d;
+  d.test = &test;
+  d.run = &run;
+  d.force_N.resize(static_cast<Eigen::Index>(chosen.size()));
+  for (size_t j = 0; j < chosen.size(); ++j) {
+    d.extension_mm.push_back(run.extension_mm[chosen[j]]);
+    d.force_N[static_cast<Eigen::Index>(j)] = run.force_N[chosen[j]];
+  }
+  if (d.extension_mm.size() < 2)
+    throw InputError({run.path, 0, "force_N"}, "fewer than 2 usable points in the loading branch (forces above " +
+                                                   fmt::format("{:.3g}", floor) + " N)");
+  return d;
+}
+
+const std::vector<MembraneTerm>& membrane_terms() {
+  static const std::vector<MembraneTerm> terms = {
+      {"eta1", "a11_Pa", &MaterialParameters::a11_Pa, &MaterialParameters::eta1, &Cutoffs::E11_max, "E11", 0, 1.0, 1.0, 0.0},
+      {"eta3", "a22_Pa", &MaterialParameters::a22_Pa, &MaterialParameters::eta3, &Cutoffs::E22_max, "E22", 1, 1.0, 1.0, 1.0},
+      {"eta4", "G12_Pa", &MaterialParameters::G12_Pa, &MaterialParameters::eta4, &Cutoffs::E12_max, "E12", 2, 2.0,
+       0.25, 0.01}};
+  return terms;
+}
+
+const MembraneTerm& membrane_term(const std::string& curve) {
+  for (const MembraneTerm& t : membrane_terms())
+    if (t.curve == curve) return t;
+  throw std::logic_error("no membrane term '" + curve + "'");
+}
+
+FitContext::FitContext(const Dataset& dataset, const FitConfig& config, const Registry& registry,
+                       FitProgress progress)
+    : dataset_(dataset), config_(config), registry_(registry), progress_(std::move(progress)) {
+  factory_ = [this](const StripSpec& strip, const MaterialParameters& p) {
+    return registry_.create<DiscretizationFactories>(registry_category::kDiscretization, config_.discretization,
+                                                     strip, p);
+  };
+  solver_.gradient_tolerance = config.solver.gradient_tolerance;
+  for (const ComponentChoice& choice : config.effects)
+    effects.push_back(registry_.create<EffectFactories>(registry_category::kEffect, choice));
+}
+
+void FitContext::say(int level, const std::string& line) const {
+  if (progress_) progress_(level, line);
+}
+
+void FitContext::note(const std::string& line) {
+  if (out_) out_->notes.push_back(line);
+  say(0, line);
+}
+
+const FitStageRecord& FitContext::record_stage(const std::string& stage, const std::string& resolution, int degree,
+                                               double error, const Optimizer& optimizer, const OptimizerResult& r,
+                                               const FitObjective& objective, Clock::time_point start) {
+  FitStageRecord rec;
+  rec.stage = stage;
+  rec.resolution = resolution;
+  rec.degree = degree;
+  rec.avg_rel_error = error;
+  rec.optimizer = optimizer.name();
+  rec.status = to_string(r.status);
+  rec.message = r.message;
+  if (objective.failed_evaluations() > 0)
+    rec.message += fmt::format(" ({} failed evaluations; last: {})", objective.failed_evaluations(),
+                               objective.last_failure());
+  rec.iterations = r.summary.iterations;
+  rec.evaluations = objective.evaluations();
+  rec.equilibrium_solves = objective.equilibrium_solves();
+  rec.wall_time_s = seconds_since(start);
+  if (!out_) throw std::logic_error("FitContext::record_stage outside a stage");
+  out_->stages.push_back(rec);
+  return out_->stages.back();
+}
+
+std::vector<const RunData*> FitContext::runs_for(double angle_deg) const {
+  std::vector<const RunData*> out;
+  for (const RunData& d : fit_runs)
+    if (std::abs(d.test->angle_deg - angle_deg) < 1e-9) out.push_back(&d);
+  return out;
+}
+
+const CurveStage* FitContext::fitted_curve_at(double angle_deg) const {
+  for (const CurveStage& c : fitted_curves)
+    if (std::abs(c.angle_deg - angle_deg) < 1e-9) return &c;
+  return nullptr;
+}
+
+TensileSetup FitContext::setup_for(const TensileTest& test, int level) const {
+  TensileSetup s;
+  s.angle_deg = test.angle_deg;
+  s.width_mm = test.width_mm;
+  s.gauge_length_mm = test.gauge_length_mm;
+  s.cells_across = config_.resolution.coarse_cells_across << level;
+  s.cells_along = std::max(1, static_cast<int>(std::lround(s.cells_across * test.gauge_length_mm / test.width_mm)));
+  return s;
+}
+
+std::string FitContext::resolution_text(int cells_across, int cells_along) {
+  return std::to_string(cells_across) + "x" + std::to_string(cells_along);
+}
+
+ExperimentInput FitContext::experiment_input(std::string label, double angle_deg, double width_mm, int cells_across,
+                                             int cells_along, const MaterialParameters& p) const {
+  ExperimentInput input;
+  input.label = std::move(label);
+  input.angle_deg = angle_deg;
+  input.width_mm = width_mm;
+  input.cells_across = cells_across;
+  input.cells_along = cells_along;
+  input.discretization = factory_;
+  input.start = p;
+  input.solver = solver_;
+  return input;
+}
+
+std::shared_ptr<Experiment> FitContext::tensile_experiment(const RunData& d, int level,
+                                                           const MaterialParameters& p) const {
+  const TensileSetup s = setup_for(*d.test, level);
+  ExperimentInput input = experiment_input(run_label(d), s.angle_deg, s.width_mm, s.cells_across, s.cells_along, p);
+  input.length_mm = s.gauge_length_mm;
+  input.schedule = d.extension_mm;
+  input.measured = d.force_N;
+  return registry_.create<ExperimentFactories>(registry_category::kExperiment, config_.tensile_experiment, input);
+}
+
+std::unique_ptr<Optimizer> FitContext::make_optimizer(bool refine) const {
+  return make_optimizer(config_.optimizer, refine);
+}
+
+std::unique_ptr<Optimizer> FitContext::make_optimizer(ComponentChoice choice, bool refine) const {
+  const FitStopping& stop = config_.stopping;
+  choice.options.set("max_iterations", refine ? stop.refine_max_iterations : stop.max_iterations);
+  choice.options.set("max_evaluations", stop.max_evaluations);
+  choice.options.set("gradient_tolerance", stop.gradient_tolerance);
+  choice.options.set("function_tolerance", refine ? stop.refine_function_tolerance : stop.function_tolerance);
+  return registry_.create<OptimizerFactories>(registry_category::kOptimizer, choice);
+}
+
+FitContext::CurveFit FitContext::fit_curve(const CurveStage& stage, int level, MaterialParameters* p, bool refining) {
+  const auto t = Clock::now();
+  const auto runs = runs_for(stage.angle_deg);
+  std::vector<std::shared_ptr<Predictor>> predictors;
+  std::string resolution;
+  for (const RunData* d : runs) {
+    const TensileSetup s = setup_for(*d->test, level);
+    resolution = resolution_text(s.cells_across, s.cells_along);
+    const std::shared_ptr<Experiment> experiment = tensile_experiment(*d, level, *p);
+    last_predictor[d] = {level, experiment};
+    predictors.push_back(experiment);
+  }
+  ParameterMap map(*p, stage.free_parameters());
+  FitObjective objective(map, predictors);
+  const int degree = ((*p).*(stage.term->curve_member)).degree();
+  objective.set_progress([&](const IterationRecord& it, const Eigen::VectorXd&) {
+    say(1, fmt::format("  {} {} degree {} it {:3d}: eps {:.4e} |g| {:.2e} ({} solves)", stage.label, resolution,
+                       degree, it.iteration, it.value, it.gradient_norm, objective.equilibrium_solves()));
+  });
+  std::unique_ptr<Optimizer> optimizer = make_optimizer(refining);
+  const OptimizerResult r = optimizer->minimize(objective, map.initial_x());
+  CurveFit out;
+  if (!std::isfinite(r.summary.final_value)) {
+    note(fmt::format("{} {} degree {}: optimiser failed ({}): {}", stage.label, resolution, degree,
+                     to_string(r.status), r.message));
+    return out;
+  }
+  *p = map.parameters(r.x);
+  objective.evaluate(r.x, nullptr);
+  out.ok = true;
+  out.error = mean_run_error(objective, runs.size());
+  const FitStageRecord& rec = record_stage(stage.label, resolution, degree, out.error, *optimizer, r, objective, t);
+  say(0, fmt::format("{} {} degree {}: error {:.2f} % ({}, {} its, {} solves, {:.1f} s){}", stage.label, resolution,
+                     degree, 100 * out.error, rec.status, rec.iterations, rec.equilibrium_solves, rec.wall_time_s,
+                     r.status == OptimizerStatus::converged ? "" : ": " + rec.message));
+  return out;
+}
+
+FitCurve FitContext::curve_record(const RunData& d, const std::string& role, const Eigen::VectorXd& simulated) {
+  FitCurve c;
+  c.label = d.test->label;
+  c.angle_deg = d.test->angle_deg;
+  c.run = d.run->name();
+  c.role = role;
+  c.extension_mm = d.extension_mm;
+  c.measured_N.assign(d.force_N.data(), d.force_N.data() + d.force_N.size());
+  c.simulated_N.assign(simulated.data(), simulated.data() + simulated.size());
+  c.avg_rel_error = (simulated - d.force_N).cwiseAbs().sum() / d.force_N.cwiseAbs().sum();
+  return c;
+}
+
+}  // namespace twill

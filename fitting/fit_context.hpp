@@ -1,0 +1,149 @@
+#pragma once
+// The state a fit's stages share (fitting/fit_stage.hpp) and the steps several of them take:
+// the measured points of the fit and validation runs, the parameters so far, the tensile-curve
+// stages of the protocol, the mesh of a run at a level of the resolution ladder, the
+// experiments and optimisers from the registry, one curve fit of a stage at one level (paper
+// Eq. 3 over the stage's runs), and the records the report is made of. Every choice is read
+// from the typed FitConfig (fitting/fit_config.hpp); nothing here looks a key up.
+#include <Eigen/Core>
+#include <chrono>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "core/dataset.hpp"
+#include "core/equilibrium_solver.hpp"
+#include "core/fit_objective.hpp"
+#include "core/parameters.hpp"
+#include "core/registry.hpp"
+#include "effects/effect.hpp"
+#include "experiments/experiment.hpp"
+#include "experiments/tensile_strip.hpp"
+#include "fitting/fit_config.hpp"
+#include "fitting/fit_protocol.hpp"
+#include "optimizers/optimizer.hpp"
+
+namespace twill {
+
+/// A fit run's measured points: the loading branch, small forces dropped, evenly thinned
+/// (FitDataSelection).
+struct RunData {
+  const TensileTest* test = nullptr;
+  const TensileRun* run = nullptr;
+  std::vector<double> extension_mm;
+  Eigen::VectorXd force_N;
+};
+RunData measured_points(const TensileTest& test, const TensileRun& run, const FitDataSelection& data);
+
+/// A term of ψ that a tensile-curve stage fits (model.md §2), with what the protocol needs of
+/// it. Its part of ψ is stress_factor/2 · a · η(E²): a/2 η(E²) for a stretch, G12 η4(E12²) for
+/// the shear; the stress is stress_factor · a · E · η'(E²).
+struct MembraneTerm {
+  std::string curve;       ///< "eta1": the curve's entries are free ("eta1.*")
+  std::string stiffness;   ///< "a11_Pa": free with the curve
+  double MaterialParameters::*stiffness_member;
+  Curve MaterialParameters::*curve_member;
+  std::optional<double> Cutoffs::*cutoff;
+  std::string cutoff_name;  ///< "E11", for notes
+  int strain_component;     ///< 0, 1, 2: Ẽ11, Ẽ22, Ẽ12 (TensileExperiment::largest_material_strain)
+  double stress_factor;
+  /// The initial guess (§5.3): stiffness = slope_factor · small-strain modulus / τ (a stretch:
+  /// 1; the shear: ¼, a stiff-yarn bias strip deforming by shear alone has modulus ≈ 4 G12).
+  double slope_factor;
+  /// The initial guess without a test for this term: this fraction of a11 (eta3: 1, the weft
+  /// as stiff as the warp; eta4: 0.01, the shear of a stiff-yarn weave; eta1 needs its test).
+  double fraction_of_a11_without_test;
+};
+/// eta1 (warp stretch), eta3 (weft stretch), eta4 (shear): the terms a strip test identifies.
+const std::vector<MembraneTerm>& membrane_terms();
+const MembraneTerm& membrane_term(const std::string& curve);
+
+/// A tensile-curve stage as the other stages see it.
+struct CurveStage {
+  std::string label;  ///< "warp"
+  double angle_deg = 0;
+  const MembraneTerm* term = nullptr;
+  std::vector<std::string> free_parameters() const { return {term->stiffness, term->curve + ".*"}; }
+};
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t);
+double mean(const std::vector<double>& v);
+/// The mean of the first n runs' average relative errors (model.md §8).
+double mean_run_error(const FitObjective& objective, size_t n);
+
+class FitContext {
+ public:
+  FitContext(const Dataset& dataset, const FitConfig& config, const Registry& registry, FitProgress progress);
+
+  const Dataset& dataset() const { return dataset_; }
+  const FitConfig& config() const { return config_; }
+  const Registry& registry() const { return registry_; }
+
+  // ---- what the stages share ----
+  MaterialParameters params;
+  std::vector<RunData> fit_runs, validation_runs;
+  std::vector<CurveStage> declared_curves;  ///< every tensile-curve stage of the protocol, in order
+  std::vector<CurveStage> fitted_curves;    ///< those that ran, in order (the ladder refits them)
+  int finest_level = 0;                     ///< the finest level any stage reached
+  std::vector<std::shared_ptr<const Effect>> effects;  ///< the config's, in its order
+  /// Each fit run's predictor of its stage's last fit, with that fit's level (final curves
+  /// re-evaluate it warm).
+  std::map<const RunData*, std::pair<int, std::shared_ptr<Experiment>>> last_predictor;
+
+  // ---- output: progress lines, and notes and records into the running stage's report ----
+  void set_output(FitReport* out) { out_ = out; }
+  void say(int level, const std::string& line) const;
+  void note(const std::string& line);
+  /// Records one optimisation of a stage (its report row) and returns it.
+  const FitStageRecord& record_stage(const std::string& stage, const std::string& resolution, int degree,
+                                     double error, const Optimizer& optimizer, const OptimizerResult& r,
+                                     const FitObjective& objective, Clock::time_point start);
+
+  // ---- data and meshes ----
+  std::vector<const RunData*> runs_for(double angle_deg) const;
+  const CurveStage* fitted_curve_at(double angle_deg) const;
+  /// The strip of `test` at ladder level `level` (level 0: coarse_cells_across across).
+  TensileSetup setup_for(const TensileTest& test, int level) const;
+  int levels() const { return config_.resolution.levels; }
+  static std::string run_label(const RunData& d) { return d.test->label + " " + d.run->name(); }
+  static std::string resolution_text(int cells_across, int cells_along);
+
+  // ---- parts from the registry ----
+  const DiscretizationFactory& discretization() const { return factory_; }
+  const EquilibriumOptions& solver() const { return solver_; }
+  /// An experiment's input on this fit's discretisation and solver (schedule and measured
+  /// values are the caller's).
+  ExperimentInput experiment_input(std::string label, double angle_deg, double width_mm, int cells_across,
+                                   int cells_along, const MaterialParameters& p) const;
+  /// A fit run's experiment at `level` from `p` (config experiments.tensile).
+  std::shared_ptr<Experiment> tensile_experiment(const RunData& d, int level, const MaterialParameters& p) const;
+  /// The config's optimiser (or `choice`) with the stages' limits (`refine`: a ladder refit's).
+  std::unique_ptr<Optimizer> make_optimizer(bool refine = false) const;
+  std::unique_ptr<Optimizer> make_optimizer(ComponentChoice choice, bool refine = false) const;
+
+  // ---- the step several stages take ----
+  struct CurveFit {
+    double error = 0;
+    bool ok = false;
+  };
+  /// Fits `stage`'s free parameters of *p to its runs at `level` (Eq. 3), records it; `refining`:
+  /// a refit from a converged solution of the same degree, with the ladder's limits.
+  CurveFit fit_curve(const CurveStage& stage, int level, MaterialParameters* p, bool refining = false);
+  /// A fit or validation run's curve record with its simulated forces.
+  static FitCurve curve_record(const RunData& d, const std::string& role, const Eigen::VectorXd& simulated);
+
+ private:
+  const Dataset& dataset_;
+  const FitConfig& config_;
+  const Registry& registry_;
+  FitProgress progress_;
+  DiscretizationFactory factory_;
+  EquilibriumOptions solver_;
+  FitReport* out_ = nullptr;
+};
+
+}  // namespace twill

@@ -1,0 +1,54 @@
+#include "fitting/fit_effects.hpp"
+
+#include "core/input_error.hpp"
+#include "effects/misalignment.hpp"
+
+namespace twill {
+
+bool is_angle_offset(const Effect& effect) {
+  if (effect.per_run_parameters().size() != 1) return false;
+  ExperimentInput probe;
+  const std::vector<SetupChange> changes = effect.adjust_setup(Eigen::VectorXd::Ones(1), &probe);
+  return changes.size() == 1 && changes[0].quantity == setup_quantity::kAngle && changes[0].gradient.size() == 1 &&
+         changes[0].gradient[0] == 1.0;
+}
+
+std::shared_ptr<const Effect> angle_offset_effect(const FitContext& context) {
+  for (const auto& e : context.effects)
+    if (is_angle_offset(*e)) return e;
+  const RegistryEntry& entry = context.registry().find_category(registry_category::kEffect)->at(Misalignment::kName);
+  return context.registry().create<EffectFactories>(
+      registry_category::kEffect,
+      ComponentChoice{registry_category::kEffect, entry.name, default_options(entry.options, nullptr)});
+}
+
+void check_effects_data(const Dataset& dataset, const FitConfig& config, const Registry& registry) {
+  for (size_t i = 0; i < config.effects.size(); ++i) {
+    const auto effect = registry.create<EffectFactories>(registry_category::kEffect, config.effects[i]);
+    const std::string missing = effect->missing_data(dataset);
+    if (!missing.empty())
+      throw InputError({"", 0, "effects[" + std::to_string(i) + "]"}, "effect '" + config.effects[i].name +
+                                                                          "' cannot be fitted to dataset '" +
+                                                                          dataset.name + "': " + missing);
+  }
+}
+
+std::vector<ComponentChoice> estimate_effects(FitContext& context, const std::vector<FitCurve>& validation) {
+  std::vector<ComponentChoice> fitted_effects;
+  for (size_t i = 0; i < context.effects.size(); ++i) {
+    ComponentChoice fitted = context.config().effects[i];
+    if (is_angle_offset(*context.effects[i]) && !validation.empty()) {
+      std::vector<Eigen::VectorXd> offsets;
+      for (const FitCurve& c : validation) offsets.push_back(Eigen::VectorXd::Constant(1, c.delta_theta_deg));
+      fitted.options = context.effects[i]->estimated_from_runs(offsets, fitted.options);
+      context.note("effect " + fitted.name + ": estimated from the " + std::to_string(offsets.size()) +
+                   " validation offsets");
+    } else {
+      context.note("effect " + fitted.name + ": parameters as configured (the fit estimates none of them)");
+    }
+    fitted_effects.push_back(fitted);
+  }
+  return fitted_effects;
+}
+
+}  // namespace twill

@@ -1,0 +1,29 @@
+#pragma once
+// The fit's side of the model's effects (effects/effect.hpp, docs/effects.md): which effect
+// turns a strip by its per-run value (the validation stage's angle offsets), the data each
+// configured effect needs, and the effects' parameters after the fit.
+#include <memory>
+#include <vector>
+
+#include "effects/effect.hpp"
+#include "fitting/fit_context.hpp"
+
+namespace twill {
+
+/// Whether an effect's per-run parameter is the strip's angle offset (its set-up hook turns
+/// the angle by its one per-run value).
+bool is_angle_offset(const Effect& effect);
+
+/// The configured angle-offset effect, or the registry's misalignment with its defaults: the
+/// validation stage turns its strips through this effect's set-up hook (§7's Δθ).
+std::shared_ptr<const Effect> angle_offset_effect(const FitContext& context);
+
+/// Throws InputError (key effects[i]) when a configured effect cannot be fitted to the dataset.
+void check_effects_data(const Dataset& dataset, const FitConfig& config, const Registry& registry);
+
+/// The fitted model's effects: an angle-offset effect's model parameters estimated from the
+/// validation offsets (its per-run values); any other effect keeps its configured parameters
+/// (the fit estimates no other per-run values yet), which a note says.
+std::vector<ComponentChoice> estimate_effects(FitContext& context, const std::vector<FitCurve>& validation);
+
+}  // namespace twill

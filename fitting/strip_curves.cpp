@@ -1,0 +1,92 @@
+#include "fitting/strip_curves.hpp"
+
+#include <algorithm>
+
+#include <tbb/parallel_for.h>
+
+namespace twill {
+
+TensileCurve StripCurves::run_anchored(TensileExperiment& experiment, const TensileTest& test,
+                                       const std::vector<double>& extensions) const {
+  const auto anchor = anchors_.find(&test);
+  if (anchor != anchors_.end()) {
+    const AngleAnchor& a = anchor->second;
+    const double offset = experiment.setup().angle_deg - a.angle_deg;
+    std::vector<Eigen::VectorXd> guesses;
+    for (double e : extensions) {
+      const auto at = std::find(a.extensions.begin(), a.extensions.end(), e);
+      if (at == a.extensions.end()) break;
+      const size_t j = static_cast<size_t>(at - a.extensions.begin());
+      if (a.q[j].size() != experiment.discretization().num_dofs()) break;  // another level's anchor
+      guesses.push_back(a.q[j] + offset * a.dq_dangle[j]);
+    }
+    if (guesses.size() == extensions.size()) {
+      TensileCurve curve = experiment.run_from(extensions, guesses);
+      if (curve.completed) return curve;
+    }
+  }
+  return experiment.run(extensions);
+}
+
+std::vector<std::optional<StripCurves::Simulated>> StripCurves::simulate(const FitContext& context,
+                                                                         const std::vector<Request>& requests,
+                                                                         int level, bool angle_derivative) {
+  struct Group {
+    const TensileTest* test;
+    double angle_deg;
+    std::vector<double> extensions;
+    TensileCurve curve;
+  };
+  std::vector<Group> groups;
+  std::vector<size_t> group_of(requests.size());
+  for (size_t r = 0; r < requests.size(); ++r) {
+    const Request& q = requests[r];
+    auto g = std::find_if(groups.begin(), groups.end(), [&](const Group& x) {
+      return x.test == q.run->test && x.angle_deg == q.angle_deg;
+    });
+    if (g == groups.end()) g = groups.insert(groups.end(), Group{q.run->test, q.angle_deg, {}, {}});
+    g->extensions.insert(g->extensions.end(), q.run->extension_mm.begin(), q.run->extension_mm.end());
+    group_of[r] = static_cast<size_t>(g - groups.begin());
+  }
+  for (Group& g : groups) {
+    std::sort(g.extensions.begin(), g.extensions.end());
+    g.extensions.erase(std::unique(g.extensions.begin(), g.extensions.end()), g.extensions.end());
+  }
+  tbb::parallel_for(size_t{0}, groups.size(), [&](size_t i) {
+    Group& g = groups[i];
+    TensileSetup setup = context.setup_for(*g.test, level);
+    setup.angle_deg = g.angle_deg;
+    TensileExperiment experiment(setup, context.discretization(), context.params, context.solver());
+    experiment.set_angle_sensitivity(angle_derivative);
+    experiment.set_keep_states(angle_derivative);
+    g.curve = run_anchored(experiment, *g.test, g.extensions);
+  });
+  if (angle_derivative)
+    for (Group& g : groups) {
+      if (!g.curve.completed) continue;
+      AngleAnchor& a = anchors_[g.test];
+      a = AngleAnchor{g.angle_deg, g.extensions, {}, {}};
+      for (TensilePoint& p : g.curve.points) {
+        a.q.push_back(std::move(p.q));
+        a.dq_dangle.push_back(std::move(p.dq_dangle));
+      }
+    }
+  std::vector<std::optional<Simulated>> out(requests.size());
+  for (size_t r = 0; r < requests.size(); ++r) {
+    const std::vector<TensilePoint>& points = groups[group_of[r]].curve.points;
+    const std::vector<double>& wanted = requests[r].run->extension_mm;
+    Simulated run{Eigen::VectorXd(static_cast<Eigen::Index>(wanted.size())),
+                  Eigen::VectorXd(static_cast<Eigen::Index>(wanted.size()))};
+    size_t j = 0;
+    for (size_t i = 0; i < wanted.size(); ++i) {
+      while (j < points.size() && points[j].extension_mm != wanted[i]) ++j;
+      if (j == points.size()) break;
+      run.force_N[static_cast<Eigen::Index>(i)] = points[j].force_N;
+      run.dforce_dangle[static_cast<Eigen::Index>(i)] = points[j].dforce_dangle;
+      if (i + 1 == wanted.size()) out[r] = run;
+    }
+  }
+  return out;
+}
+
+}  // namespace twill

@@ -1,0 +1,53 @@
+#pragma once
+// Simulated forces of several runs at given strip angles at one level, for the stages that
+// evaluate rather than fit (final curves, validation). Requests on the same test and angle
+// share the strip, so one continuation over the union of their extensions serves them all (a
+// quasistatic equilibrium does not depend on the loading path); the distinct curves run in
+// parallel (TBB tasks, each with its own discretisation and solver; assembly inside nests in
+// the same scheduler). A request gets nullopt when its curve stopped before its largest
+// extension.
+#include <Eigen/Core>
+#include <map>
+#include <optional>
+#include <vector>
+
+#include "experiments/tensile_strip.hpp"
+#include "fitting/fit_context.hpp"
+
+namespace twill {
+
+class StripCurves {
+ public:
+  struct Request {
+    const RunData* run;
+    double angle_deg;
+  };
+  /// A run's simulated forces at its extensions [N], and dF/dθ [N/°] when asked for.
+  struct Simulated {
+    Eigen::VectorXd force_N, dforce_dangle;
+  };
+
+  /// Simulates every request at `level` with the context's parameters. With
+  /// `angle_derivative`, dF/dθ is reported and each curve becomes its test's angle anchor:
+  /// later requests of that test at other angles start each point from q + Δθ dq/dθ
+  /// (TensileExperiment::run_from) instead of continuing.
+  std::vector<std::optional<Simulated>> simulate(const FitContext& context, const std::vector<Request>& requests,
+                                                 int level, bool angle_derivative = false);
+
+ private:
+  /// A test's equilibria at one angle with dq/dθ per point.
+  struct AngleAnchor {
+    double angle_deg = 0;
+    std::vector<double> extensions;
+    std::vector<Eigen::VectorXd> q, dq_dangle;
+  };
+  /// Curve of `experiment` over `extensions`: warm-started from the test's angle anchor when
+  /// it covers every extension (all points in parallel), by continuation otherwise or when a
+  /// warm start fails.
+  TensileCurve run_anchored(TensileExperiment& experiment, const TensileTest& test,
+                            const std::vector<double>& extensions) const;
+
+  std::map<const TensileTest*, AngleAnchor> anchors_;
+};
+
+}  // namespace twill
