@@ -70,11 +70,24 @@ FitReport run_fit_keeping_finished(const Dataset& dataset, const Options& config
   }
 }
 
-void run(Context& context, const FitArgs& args) {
+// The config file (or the defaults) with the --set overrides; an unknown key of a config
+// written before the protocol became data says where it moved.
+Options resolved_config(Context& context, const FitArgs& args) {
   const OptionSchema schema = fit_config_schema();
-  Options config = args.config.empty() ? default_options(schema, &context.registry)
-                                       : read_config_file(args.config, schema, &context.registry);
-  apply_overrides(config, schema, &context.registry, args.sets);
+  try {
+    Options config = args.config.empty() ? default_options(schema, &context.registry)
+                                         : read_config_file(args.config, schema, &context.registry);
+    apply_overrides(config, schema, &context.registry, args.sets);
+    return config;
+  } catch (const InputError& e) {
+    const std::string hint = moved_key_hint(e.where().key);
+    if (hint.empty()) throw;
+    throw InputError(e.where(), e.reason() + "; " + hint);
+  }
+}
+
+void run(Context& context, const FitArgs& args) {
+  const Options config = resolved_config(context, args);
   if (args.print_config) {
     std::cout << options_to_yaml(config);
     return;

@@ -112,6 +112,25 @@ OptionSchema fit_config_schema() {
   return s;
 }
 
+std::string moved_key_hint(const std::string& key_path) {
+  static const std::vector<std::pair<std::string, std::string>> moved = {
+      {"degree", "the tensile-curve stages' max_degree, target_error, min_improvement, raise_attempts "
+                 "(protocol[*].max_degree=...)"},
+      {"stages", "stages are the protocol's entries: remove a strain-cutoff, bend or validation entry to skip it; "
+                 "cutoff_fraction is the strain-cutoff stages' fraction"},
+      {"bend", "the bend stage's cells_across, cells_along, find_overhang (protocol[*].cells_along=...)"},
+      {"validation", "the validation stage's max_offset_deg, offset_iterations, offset_resolution_deg"},
+      {"initial_guess", "uniform_strain.optimizer; remove the initial-guess entry of protocol to skip it "
+                        "(and set protocol[*].uniform_starts=false for the old enabled: false)"},
+      {"resolution.change_tolerance", "the resolution-ladder stage's change_tolerance"},
+      {"resolution.extra_levels", "the resolution-ladder stage's extra_levels"},
+  };
+  for (const auto& [old_key, now] : moved)
+    if (key_path == old_key || key_path.rfind(old_key + ".", 0) == 0)
+      return "'" + old_key + "' moved (the protocol is a list of stages, twill fit --print-config): " + now;
+  return {};
+}
+
 FitConfig read_fit_config(const Options& resolved) {
   FitConfig c;
   c.discretization = resolved.get_component("discretization");

@@ -81,4 +81,9 @@ struct FitConfig {
 /// The typed config of options resolved against fit_config_schema().
 FitConfig read_fit_config(const Options& resolved);
 
+/// Where a key of configs written before the protocol became data (issue #14) lives now, e.g.
+/// "degree" -> "protocol[*].max_degree, ...": a hint for the unknown-key error of an old config
+/// file or --set; empty for any other key.
+std::string moved_key_hint(const std::string& key_path);
+
 }  // namespace twill

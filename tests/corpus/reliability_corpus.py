@@ -479,6 +479,10 @@ def config_cases():
                      ("protocol[*].max_offset_deg=inf", "max_offset_deg"), ("noequals", "key.path=value"),
                      ("resolution.coarse_cells_across=99999999999999999999", "coarse_cells_across")]:
         add(f"--set {kv}", ["--set", kv], ["--set", frag])
+    # A key of a config written before the protocol became data says where it moved.
+    add("--set degree.max=1 (moved)", ["--set", "degree.max=1"], ["--set", "'degree' moved", "protocol[*].max_degree"])
+    add("-c-old-stages-key", ["-c", "{w}/c.yaml"], ["c.yaml:1", "'stages' moved", "strain-cutoff"],
+        setup=dataset_setup(extra=lambda w: write(os.path.join(w, "c.yaml"), "stages: {bend: false}\n")))
     add("-c-directory", ["-c", "{w}/confdir"], ["confdir", "directory"],
         setup=dataset_setup(extra=lambda w: os.mkdir(os.path.join(w, "confdir"))), issue=True)
     add("-c-missing", ["-c", "{w}/none.yaml"], ["none.yaml", "cannot open"])
