@@ -37,6 +37,24 @@ class FinalCurves final : public FitStage {
   std::string title() const override { return "final curves"; }
 
   void run(FitContext& context, FitReport& out) override {
+    const std::vector<std::optional<Eigen::VectorXd>> forces = final_forces(context);
+    for (size_t r = 0; r < context.fit_runs.size(); ++r) {
+      const RunData& d = context.fit_runs[r];
+      if (!forces[r]) {
+        context.note("final curve of " + FitContext::run_label(d) + " did not converge");
+        continue;
+      }
+      FitCurve c = FitContext::curve_record(d, "fit", *forces[r]);
+      if (const CurveStage* stage = context.fitted_curve_at(d.test->angle_deg))
+        c.degree = (context.params.*(stage->term->curve_member)).degree();
+      out.fit.push_back(c);
+    }
+  }
+
+ private:
+  /// Each fit run's forces at the final parameters (nullopt where no solve converged): warm
+  /// predictors and simulated curves in parallel, then a failed warm start simulated after all.
+  std::vector<std::optional<Eigen::VectorXd>> final_forces(const FitContext& context) const {
     const size_t n = context.fit_runs.size();
     std::vector<StripCurves::Request> requests, simulated_requests;
     std::vector<std::shared_ptr<Experiment>> warm(n);
@@ -61,7 +79,6 @@ class FinalCurves final : public FitStage {
           }
         },
         [&] { simulated = curves.simulate(context, simulated_requests, context.finest_level); });
-    // A warm start that failed is simulated along its schedule after all.
     std::vector<size_t> retry;
     for (size_t r = 0, k = 0; r < n; ++r) {
       if (!warm[r]) {
@@ -76,20 +93,9 @@ class FinalCurves final : public FitStage {
     const auto retried = curves.simulate(context, retry_requests, context.finest_level);
     for (size_t i = 0; i < retry.size(); ++i)
       if (retried[i]) forces[retry[i]] = retried[i]->force_N;
-    for (size_t r = 0; r < n; ++r) {
-      const RunData& d = *requests[r].run;
-      if (!forces[r]) {
-        context.note("final curve of " + FitContext::run_label(d) + " did not converge");
-        continue;
-      }
-      FitCurve c = FitContext::curve_record(d, "fit", *forces[r]);
-      if (const CurveStage* stage = context.fitted_curve_at(d.test->angle_deg))
-        c.degree = (context.params.*(stage->term->curve_member)).degree();
-      out.fit.push_back(c);
-    }
+    return forces;
   }
 
- private:
   FinalCurvesOptions options_;
 };
 
