@@ -93,8 +93,10 @@ OptionSchema fit_config_schema() {
                        "the model's effects, estimated by the fit and written to params.yaml (twill list effect)");
   OptionSchema& experiments = s.add_section("experiments", "the simulated tests the stages fit (twill list experiment)");
   experiments.add_component("tensile", registry_category::kExperiment, "tensile",
-                            "experiment of every fitted tensile run (tensile-curve stages)");
-  experiments.add_component("bend", registry_category::kExperiment, "bend", "experiment of the bend stage");
+                            "experiment of every fitted tensile run (width, gauge length: each test's; cells: the "
+                            "resolution levels)");
+  experiments.add_component("bend", registry_category::kExperiment, "bend",
+                            "experiment of the bend stage (width: each test's; its cells are its own)");
   s.add_section("stopping", "the optimiser's limits in every stage, applied to its common options") =
       option_schema(stopping_bindings());
   OptionSchema& uniform = s.add_section("uniform_strain", "the uniform-strain model of a strip (paper §5.3)");
@@ -118,7 +120,8 @@ std::string moved_key_hint(const std::string& key_path) {
                  "(protocol[*].max_degree=...)"},
       {"stages", "stages are the protocol's entries: remove a strain-cutoff, bend or validation entry to skip it; "
                  "cutoff_fraction is the strain-cutoff stages' fraction"},
-      {"bend", "the bend stage's cells_across, cells_along, find_overhang (protocol[*].cells_along=...)"},
+      {"bend", "experiments.bend.cells_across, experiments.bend.cells_along, and the bend stage's find_overhang "
+               "(protocol[*].find_overhang=...)"},
       {"validation", "the validation stage's max_offset_deg, offset_iterations, offset_resolution_deg"},
       {"initial_guess", "uniform_strain.optimizer; remove the initial-guess entry of protocol to skip it "
                         "(and set protocol[*].uniform_starts=false for the old enabled: false)"},

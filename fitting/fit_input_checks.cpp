@@ -7,6 +7,23 @@
 
 namespace twill {
 
+namespace {
+
+// The cantilever's cells are the bend experiment's options (experiments.bend); checked even
+// when the dataset has no bend test: the key is wrong either way.
+void check_bend_size(const Options& config, const ConfigKeyLocator& locate) {
+  const Options& bend = config.get_section("experiments").get_component("bend").options;
+  if (!bend.has("cells_across") || !bend.has("cells_along")) return;  // another kind of bend experiment
+  const double across = static_cast<double>(bend.get_int("cells_across"));
+  const double along = static_cast<double>(bend.get_int("cells_along"));
+  const std::string violation = mesh_size_violation(across, along);
+  if (!violation.empty())
+    throw InputError(locate(across > along ? "experiments.bend.cells_across" : "experiments.bend.cells_along"),
+                     "the cantilever: " + violation);
+}
+
+}  // namespace
+
 void check_fit_sizes(const Dataset& dataset, const Options& config, const ConfigKeyLocator& locate) {
   const Options& res = config.get_section("resolution");
   // In doubles: an absurd coarse_cells_across (up to 2^63) shifted by the levels must not wrap.
@@ -22,6 +39,7 @@ void check_fit_sizes(const Dataset& dataset, const Options& config, const Config
                            "] (" + t.label + ", " + format_double(t.width_mm) + " x " +
                            format_double(t.gauge_length_mm) + " mm): " + violation);
   }
+  check_bend_size(config, locate);
 }
 
 }  // namespace twill

@@ -1,15 +1,17 @@
 // Stage `bend` (paper §5.2 step 7): the thickness τ from the cantilever chord angles at the
-// mean measured overhangs (config experiments.bend), with a ← a·τ0/τ so the tensile fits are
-// unchanged (ParameterMap's thickness rescale); optionally the simulated overhang at 41.5°
-// per test (the drape check of §6.4). Skipped, with a note, when the dataset has no bend test.
+// mean measured overhangs, with a ← a·τ0/τ so the tensile fits are unchanged (ParameterMap's
+// thickness rescale); optionally the simulated overhang at 41.5° per test (the drape check of
+// §6.4). The cantilever is the config's experiments.bend, with its own options (its cells:
+// one place to set them); the fit gives it each test's angle and width. Skipped, with a note,
+// when the dataset has no bend test.
 #include <fmt/format.h>
 
 #include <cmath>
 #include <stdexcept>
 
-#include "core/input_limits.hpp"
 #include "core/option_binding.hpp"
 #include "experiments/cantilever.hpp"
+#include "experiments/predictors.hpp"
 #include "fitting/fit_context.hpp"
 #include "fitting/fit_stage.hpp"
 #include "fitting/stages/stage_kinds.hpp"
@@ -18,17 +20,14 @@ namespace twill {
 namespace {
 
 struct BendStageOptions {
-  int cells_across = 4;
-  int cells_along = 64;
   bool find_overhang = true;
   bool validate(std::string* error) const;
 };
 
 OptionBindings<BendStageOptions> bend_stage_bindings() {
   using S = BendStageOptions;
-  return {integer_option<S>("cells_across", &S::cells_across, "cells across the 25 mm strip", at_least(1)),
-          integer_option<S>("cells_along", &S::cells_along, "cells along the overhang", at_least(4)),
-          bool_option<S>("find_overhang", &S::find_overhang, "also report the simulated overhang at 41.5 degrees")};
+  return {bool_option<S>("find_overhang", &S::find_overhang,
+                         "also report the simulated overhang at 41.5 degrees (the bend experiment's search)")};
 }
 
 bool BendStageOptions::validate(std::string* error) const {
@@ -39,15 +38,6 @@ class BendStage final : public FitStage {
  public:
   explicit BendStage(BendStageOptions options) : options_(options) {}
   std::string title() const override { return "bend"; }
-
-  /// Checked even when the dataset has no bend test: the key is wrong either way.
-  void check(const ProtocolCheck& check) const override {
-    const std::string violation = mesh_size_violation(options_.cells_across, options_.cells_along);
-    if (!violation.empty())
-      throw InputError(check.locate(check.key + (options_.cells_across > options_.cells_along ? ".cells_across"
-                                                                                                : ".cells_along")),
-                       "the cantilever: " + violation);
-  }
 
   void run(FitContext& context, FitReport& out) override {
     if (context.dataset().bend.empty()) {
@@ -72,9 +62,9 @@ class BendStage final : public FitStage {
       throw std::runtime_error("bend stage failed: " + r.message + " / " + objective.last_failure());
     params = map.parameters(r.x);
     objective.evaluate(r.x, nullptr);
-    const FitStageRecord& rec =
-        context.record_stage("bend", FitContext::resolution_text(options_.cells_across, options_.cells_along), 0,
-                             mean_run_error(objective, predictors.size()), *optimizer, r, objective, t);
+    const FitStageRecord& rec = context.record_stage("bend", resolution(predictors.front()), 0,
+                                                     mean_run_error(objective, predictors.size()), *optimizer, r,
+                                                     objective, t);
     context.say(0, fmt::format("bend: tau {:.4g} mm, error {:.2f} % ({}, {} its)", 1e3 * params.thickness_m,
                                100 * rec.avg_rel_error, rec.status, rec.iterations));
     for (size_t i = 0; i < context.dataset().bend.size(); ++i)
@@ -82,21 +72,20 @@ class BendStage final : public FitStage {
   }
 
  private:
-  CantileverSetup setup(const BendTest& b) const {
-    CantileverSetup s;
-    s.angle_deg = b.angle_deg;
-    s.width_mm = b.width_mm;
-    s.cells_across = options_.cells_across;
-    s.cells_along = options_.cells_along;
-    return s;
+  /// The cantilever of the bend experiment (null for another kind, which has no overhang search).
+  static CantileverPredictor* cantilever(const std::shared_ptr<Predictor>& p) {
+    return dynamic_cast<CantileverPredictor*>(p.get());
+  }
+  static std::string resolution(const std::shared_ptr<Predictor>& p) {
+    CantileverPredictor* c = cantilever(p);
+    return c ? FitContext::resolution_text(c->experiment().setup().cells_across, c->experiment().setup().cells_along)
+             : "";
   }
 
-  /// A bend test's experiment at the mean measured overhang (config experiments.bend),
-  /// predicting the measured chord angle.
-  std::shared_ptr<Experiment> experiment(const FitContext& context, const BendTest& b) const {
-    const CantileverSetup s = setup(b);
-    ExperimentInput input =
-        context.experiment_input(b.label, s.angle_deg, s.width_mm, s.cells_across, s.cells_along, context.params);
+  /// A bend test's experiment at the mean measured overhang (config experiments.bend, its cells
+  /// its own), predicting the measured chord angle.
+  static std::shared_ptr<Experiment> experiment(const FitContext& context, const BendTest& b) {
+    ExperimentInput input = context.experiment_input(b.label, b.angle_deg, b.width_mm, 0, 0, context.params);
     input.schedule = {mean(b.overhang_mm)};
     input.measured = Eigen::VectorXd::Constant(1, b.chord_angle_deg);
     return context.registry().create<ExperimentFactories>(registry_category::kExperiment,
@@ -109,9 +98,11 @@ class BendStage final : public FitStage {
     fb.angle_deg = b.angle_deg;
     fb.measured_overhang_mm = mean(b.overhang_mm);
     fb.chord_angle_deg = chord_angle_deg;
-    if (options_.find_overhang) {
-      CantileverExperiment e(setup(b), context.discretization(), context.params, context.solver());
-      const OverhangSearchResult s = e.find_overhang(b.chord_angle_deg);
+    if (!options_.find_overhang) return fb;
+    // A fresh experiment at the final parameters (the fitted one's states are the last trial's).
+    const std::shared_ptr<Predictor> fresh = experiment(context, b);
+    if (CantileverPredictor* c = cantilever(fresh)) {
+      const OverhangSearchResult s = c->experiment().find_overhang(b.chord_angle_deg);
       if (s.converged) fb.overhang_mm = s.overhang_mm;
     }
     return fb;

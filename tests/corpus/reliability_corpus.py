@@ -460,11 +460,10 @@ def config_cases():
                       setup=setup or dataset_setup()))
     add("resolution.coarse_cells_across=100000", ["--set", "resolution.coarse_cells_across=100000"],
         ["--set", "resolution.coarse_cells_across", "would need", "the limit is"], issue=True)
-    # protocol[*].key: the key in every stage that has it (only the bend stage has these).
-    add("bend cells_along=100000", ["--set", "protocol[*].cells_along=100000"],
-        ["--set", "protocol[*].cells_along", "would need", "the limit is"], issue=True)
-    add("bend cells_across=100000", ["--set", "protocol[*].cells_across=100000"],
-        ["--set", "protocol[*].cells_across", "would need"], issue=True)
+    add("bend cells_along=100000", ["--set", "experiments.bend.cells_along=100000"],
+        ["--set", "experiments.bend.cells_along", "would need", "the limit is"], issue=True)
+    add("bend cells_across=100000", ["--set", "experiments.bend.cells_across=100000"],
+        ["--set", "experiments.bend.cells_across", "would need"], issue=True)
     # An int option: the schema caps it at the type's largest value before any size check.
     add("coarse_cells_across=int64max", ["--set", "resolution.coarse_cells_across=9223372036854775807"],
         ["resolution.coarse_cells_across", "2147483647"])
@@ -492,9 +491,9 @@ def config_cases():
         setup=dataset_setup(extra=lambda w: write(os.path.join(w, "c.yaml"), "optimizer: bfgs\ncolour: red\n")))
     add("-c-non-utf8", ["-c", "{w}/c.yaml"], ["c.yaml:1", "UTF-8"],
         setup=dataset_setup(extra=lambda w: write(os.path.join(w, "c.yaml"), b"optimizer: bf\xffgs\n", "wb")))
-    add("-c-huge-cells", ["-c", "{w}/c.yaml"], ["c.yaml", "protocol[1].cells_along", "would need"],
+    add("-c-huge-cells", ["-c", "{w}/c.yaml"], ["c.yaml", "experiments.bend.cells_along", "would need"],
         setup=dataset_setup(extra=lambda w: write(os.path.join(w, "c.yaml"),
-                                                  "protocol: [tensile-curve, {name: bend, cells_along: 1000000}]\n")))
+                                                  "experiments: {bend: {cells_along: 1000000}}\n")))
     return c
 
 

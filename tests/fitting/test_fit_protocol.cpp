@@ -29,7 +29,7 @@ Options coarse_config(const std::vector<std::string>& extra = {}) {
   Options config = default_options(schema, &registry());
   apply_overrides(config, schema, &registry(),
                   {"resolution.coarse_cells_across=4", "resolution.levels=1", "data.max_points=8",
-                   "protocol[*].max_degree=2", "protocol[*].cells_across=2", "protocol[*].cells_along=24",
+                   "protocol[*].max_degree=2", "experiments.bend.cells_across=2", "experiments.bend.cells_along=24",
                    "protocol[*].find_overhang=false", "protocol[*].offset_iterations=2"});
   apply_overrides(config, schema, &registry(), extra);
   return config;
