@@ -207,8 +207,14 @@ FitContext::CurveFit FitContext::fit_curve(const CurveStage& stage, int level, M
                      to_string(r.status), r.message));
     return out;
   }
+  // The predictors keep their last trial's states; a final point that cannot be re-evaluated
+  // from there is the optimiser's failure (its error would be NaN), not a result.
+  if (!std::isfinite(objective.evaluate(r.x, nullptr))) {
+    note(fmt::format("{} {} degree {}: the optimiser's final point could not be re-evaluated: {}", stage.label,
+                     resolution, degree, objective.last_failure()));
+    return out;
+  }
   *p = map.parameters(r.x);
-  objective.evaluate(r.x, nullptr);
   out.ok = true;
   out.error = mean_run_error(objective, runs.size());
   const FitStageRecord& rec = record_stage(stage.label, resolution, degree, out.error, *optimizer, r, objective, t);

@@ -60,18 +60,35 @@ class BendStage final : public FitStage {
     const OptimizerResult r = optimizer->minimize(objective, map.initial_x());
     if (!std::isfinite(r.summary.final_value))
       throw std::runtime_error("bend stage failed: " + r.message + " / " + objective.last_failure());
+    const FitObjective& final_objective = evaluated_at(context, objective, map, r.x);
     params = map.parameters(r.x);
-    objective.evaluate(r.x, nullptr);
     const FitStageRecord& rec = context.record_stage("bend", resolution(predictors.front()), 0,
-                                                     mean_run_error(objective, predictors.size()), *optimizer, r,
-                                                     objective, t);
+                                                     mean_run_error(final_objective, predictors.size()), *optimizer,
+                                                     r, objective, t);
     context.say(0, fmt::format("bend: tau {:.4g} mm, error {:.2f} % ({}, {} its)", 1e3 * params.thickness_m,
                                100 * rec.avg_rel_error, rec.status, rec.iterations));
     for (size_t i = 0; i < context.dataset().bend.size(); ++i)
-      out.bend.push_back(result(context, context.dataset().bend[i], objective.last_predictions()[i][0]));
+      out.bend.push_back(result(context, context.dataset().bend[i], final_objective.last_predictions()[i][0]));
   }
 
  private:
+  /// `objective` evaluated at the optimiser's final point x. Its predictors keep the states of
+  /// their last trial, which may have failed: a re-evaluation that fails from there is tried
+  /// once more on fresh experiments (from the flat strip), and a second failure is the stage's
+  /// failure. Measured: poplin with Ipopt (2026-12-02, 30a817c) crashed here reading the empty
+  /// predictions of such a failed re-evaluation.
+  const FitObjective& evaluated_at(const FitContext& context, FitObjective& objective, ParameterMap& map,
+                                   const Eigen::VectorXd& x) {
+    if (std::isfinite(objective.evaluate(x, nullptr))) return objective;
+    std::vector<std::shared_ptr<Predictor>> fresh;
+    for (const BendTest& b : context.dataset().bend) fresh.push_back(experiment(context, b));
+    fresh_objective_ = std::make_unique<FitObjective>(map, fresh);
+    if (!std::isfinite(fresh_objective_->evaluate(x, nullptr)))
+      throw std::runtime_error("bend stage: the optimiser's final thickness could not be evaluated: " +
+                               fresh_objective_->last_failure());
+    return *fresh_objective_;
+  }
+
   /// The cantilever of the bend experiment (null for another kind, which has no overhang search).
   static CantileverPredictor* cantilever(const std::shared_ptr<Predictor>& p) {
     return dynamic_cast<CantileverPredictor*>(p.get());
@@ -109,6 +126,7 @@ class BendStage final : public FitStage {
   }
 
   BendStageOptions options_;
+  std::unique_ptr<FitObjective> fresh_objective_;  ///< evaluated_at()'s second try
 };
 
 }  // namespace
