@@ -1,23 +1,28 @@
 #include "app/program_registry.hpp"
 
-#include "discretizations/catmull_clark_kl/register_catmull_clark_kl.hpp"
-#include "discretizations/triangle_shell/register_triangle_shell.hpp"
-#include "effects/register_effects.hpp"
-#include "experiments/register_experiments.hpp"
-#include "fitting/fit_stage.hpp"
-#include "optimizers/register_optimizers.hpp"
+#include "app/program_parts.hpp"  // generated: every module's and part's register_*.hpp (cmake/TwillParts.cmake)
 
 namespace twill {
 
 void register_program(Registry& registry) {
-  // ---- One call per module (core/registry.hpp says how to write one) ------------------------
+  // One call per module or part folder; a new part adds its call to its category's group
+  // (docs/extending.md).
+
+  // discretization
   register_catmull_clark_kl(registry);
   register_triangle_shell(registry);
+
+  // optimizer
   register_optimizers(registry);
+
+  // experiment
   register_experiments(registry);
+
+  // effect
   register_effects(registry);
+
+  // stage
   register_fit_stages(registry);
-  // -------------------------------------------------------------------------------------------
 }
 
 }  // namespace twill

@@ -7,7 +7,7 @@
 
 namespace twill {
 
-/// Registers every module's implementations in `registry`: one call per module.
+/// Registers every module's implementations in `registry`: one call per module or part folder.
 void register_program(Registry& registry);
 
 }  // namespace twill

@@ -5,18 +5,11 @@
 #include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
-#include <limits>
-#include <stdexcept>
+
+#include "optimizers/box_line_search.hpp"
 
 namespace twill {
 namespace {
-
-// One evaluated line-search trial, kept so the accepted one need not be evaluated again.
-struct Trial {
-  double alpha = 0.0;
-  Eigen::VectorXd x, gradient;
-  double value = 0.0;
-};
 
 // The quasi-Newton direction with the variables in `held` fixed: p_F = −[(H⁻¹)_FF]⁻¹ g_F, the
 // minimiser of the quadratic model over the free variables. With B = H⁻¹, the inverse of the
@@ -89,29 +82,16 @@ Bfgs::Bfgs(BfgsOptions options) : options_(std::move(options)) {
 
 Options Bfgs::resolved_options() const { return options_of(bfgs_option_bindings(), options_); }
 
-void Bfgs::run(CountedProblem& problem, Eigen::VectorXd x, OptimizerResult& result) const {
+void Bfgs::run(CountedProblem& problem, Eigen::VectorXd x0, OptimizerResult& result) const {
   const Eigen::VectorXd& lower = problem.lower();
   const Eigen::VectorXd& upper = problem.upper();
   const Eigen::Index n = problem.dimension();
-  Eigen::VectorXd g(n);
-  double f = problem.evaluate(x, &g);
-  result.x = x;
-  result.summary.final_value = f;
-  if (!std::isfinite(f)) {
-    result.status = OptimizerStatus::failed;
-    result.message = "the objective is not finite at x0";
-    return;
-  }
-  double gradient_norm = projected_gradient_norm(x, g, lower, upper);
-  problem.record_iteration(x, f, gradient_norm, 0.0);
-
-  auto finish = [&](OptimizerStatus status, std::string message) {
-    result.x = x;
-    result.status = status;
-    result.message = std::move(message);
-    result.summary.final_value = f;
-    result.summary.final_gradient_norm = gradient_norm;
-  };
+  LineSearchIterate at;
+  if (!at.start(problem, std::move(x0), result)) return;
+  const Eigen::VectorXd& x = at.x;
+  const Eigen::VectorXd& g = at.g;
+  const double& f = at.f;
+  auto finish = [&](OptimizerStatus status, std::string message) { at.finish(result, status, std::move(message)); };
 
   Eigen::MatrixXd H = Eigen::MatrixXd::Identity(n, n);
   double gamma = 1.0;   // latest yᵀs / yᵀy: the scale of H after a reset
@@ -120,7 +100,7 @@ void Bfgs::run(CountedProblem& problem, Eigen::VectorXd x, OptimizerResult& resu
   int spent_on_failed_attempt = 0;  // evaluations of a failed search before the reset
   const LineSearchOptions line_search = options_.line_search();
   for (int k = 1;; ++k) {
-    if (const auto stop = options_.iteration_stop(k, gradient_norm, problem.evaluations()))
+    if (const auto stop = options_.iteration_stop(k, at.gradient_norm, problem.evaluations()))
       return finish(stop->status, stop->message);
 
     // Variables at a bound that the gradient pushes outward are held for this step.
@@ -143,23 +123,10 @@ void Bfgs::run(CountedProblem& problem, Eigen::VectorXd x, OptimizerResult& resu
       return finish(OptimizerStatus::stalled,
                     fmt::format("no descent direction at iteration {} (g'p = {:.3g})", k, dphi0));
 
-    const double alpha_max = max_feasible_step(x, p, lower, upper);
     const double alpha_initial = scaled ? 1.0 : std::min(1.0, 1.0 / p.norm());
-    std::vector<Trial> trials;
-    const LineFunction phi = [&](double alpha, double* dphi) {
-      Trial t;
-      t.alpha = alpha;
-      t.x = take_step(x, p, alpha, lower, upper);
-      t.value = problem.evaluate(t.x, &t.gradient);
-      *dphi = std::isfinite(t.value) ? t.gradient.dot(p) : std::numeric_limits<double>::quiet_NaN();
-      trials.push_back(t);
-      return t.value;
-    };
-    LineSearchOptions budgeted = line_search;
-    budgeted.max_evaluations =
-        std::min(line_search.max_evaluations, options_.max_evaluations - problem.evaluations());
-    const LineSearchOutcome outcome =
-        strong_wolfe_line_search(phi, {0.0, f, dphi0}, alpha_initial, alpha_max, budgeted);
+    const BoxLineSearch search =
+        box_line_search(problem, x, f, dphi0, p, alpha_initial, line_search, options_.max_evaluations);
+    const LineSearchOutcome& outcome = search.outcome;
 
     if (outcome.status == LineSearchOutcome::Status::failed) {
       if (problem.evaluations() >= options_.max_evaluations)
@@ -177,13 +144,8 @@ void Bfgs::run(CountedProblem& problem, Eigen::VectorXd x, OptimizerResult& resu
                     fmt::format("line search failed at iteration {}: {}", k, outcome.message));
     }
 
-    const auto accepted = std::find_if(trials.begin(), trials.end(), [&](const Trial& t) {
-      return t.alpha == outcome.accepted.alpha;
-    });
-    if (accepted == trials.end())
-      throw std::logic_error("bfgs: the accepted step was not among the evaluated trials");
-    const Eigen::VectorXd s = accepted->x - x;
-    const Eigen::VectorXd y = accepted->gradient - g;
+    const Eigen::VectorXd s = search.x - x;
+    const Eigen::VectorXd y = search.gradient - g;
     const double ys = y.dot(s);
     const bool curvature_ok = ys > options_.update_skip_threshold * s.norm() * y.norm();
     if (curvature_ok) {
@@ -195,27 +157,10 @@ void Bfgs::run(CountedProblem& problem, Eigen::VectorXd x, OptimizerResult& resu
     }
     if (bfgs_update(H, s, y, options_.update_skip_threshold)) fresh = false;
 
-    LineSearchRecord record;
-    record.iteration = k;
-    record.alpha = outcome.accepted.alpha;
-    record.phi_0 = f;
-    record.dphi_0 = dphi0;
-    record.phi_alpha = outcome.accepted.phi;
-    record.dphi_alpha = outcome.accepted.dphi;
-    record.evaluations = outcome.evaluations + spent_on_failed_attempt;
+    problem.record_line_search(line_search_record(k, f, dphi0, outcome, spent_on_failed_attempt));
     spent_on_failed_attempt = 0;
-    record.step_limited = outcome.status == LineSearchOutcome::Status::step_limit;
-    problem.record_line_search(record);
 
-    const Eigen::VectorXd x_previous = x;
-    const double f_previous = f;
-    x = accepted->x;
-    f = accepted->value;
-    g = accepted->gradient;
-    gradient_norm = projected_gradient_norm(x, g, lower, upper);
-    problem.record_iteration(x, f, gradient_norm, s.lpNorm<Eigen::Infinity>());
-    if (auto reason = check_convergence(options_, f_previous, f, x_previous, x, gradient_norm))
-      return finish(OptimizerStatus::converged, *reason);
+    if (auto reason = at.advance(problem, search, options_)) return finish(OptimizerStatus::converged, *reason);
   }
 }
 
