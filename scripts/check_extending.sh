@@ -2,7 +2,7 @@
 # Measurement script for docs/extending.md, not part of CI (nothing runs it automatically).
 #
 # Applies the worked examples docs/extending/examples/<kind>.patch (discretization, optimizer,
-# experiment, effect) one at a time to a temporary worktree of COMMIT (default HEAD), printing
+# experiment, effect, stage) one at a time to a temporary worktree of COMMIT (default HEAD), printing
 # what each adds (`git status --short` and `git diff --stat`); then builds once, prints
 # `twill list --names <category>` and runs the registry-driven tests filtered to the new parts.
 # The worktree and its build are removed at the end. JOBS (default 2) build jobs; the tests
@@ -11,7 +11,7 @@
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 commit="${1:-HEAD}"
-kinds=(discretization optimizer experiment effect)
+kinds=(discretization optimizer experiment effect stage)
 scratch="$(mktemp -d "${TMPDIR:-/tmp}/twill-extending.XXXXXX")"
 src="$scratch/src"
 build="$scratch/build"
@@ -43,7 +43,7 @@ command -v ninja >/dev/null && generator=(-G Ninja)
 shared="${TWILL_SHARED_DIR:-$(cd "$root/.." && pwd)/shared}"
 cmake -S "$src" -B "$build" "${generator[@]}" -DCMAKE_BUILD_TYPE=Release -DTWILL_SHARED_DIR="$shared" >/dev/null
 cmake --build "$build" -j "${JOBS:-2}" --target twill twill_discretizations_tests twill_optimizers_tests \
-  twill_experiments_tests twill_effects_tests >/dev/null
+  twill_experiments_tests twill_effects_tests twill_fitting_tests >/dev/null
 
 for kind in "${kinds[@]}"; do
   echo "\$ twill list --names $kind"
@@ -54,7 +54,7 @@ done
 # of its own (run here filtered to the new names); the optimiser tests loop over every
 # registered optimiser inside each test, so they run whole (the lbfgs rows of the matrix shown).
 export OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1
-new_parts='*triangle_shell_cross*:*tensile_per_width*:*weft_skew*'
+new_parts='*triangle_shell_cross*:*tensile_per_width*:*weft_skew*:*joint_refit*'
 status=0
 run() {  # test binary, gtest filter
   echo "\$ tests/$(basename "$1") --gtest_filter='$2'"
@@ -65,5 +65,6 @@ run() {  # test binary, gtest filter
 run "$build/tests/twill_discretizations_tests" "$new_parts"
 run "$build/tests/twill_experiments_tests" "$new_parts"
 run "$build/tests/twill_effects_tests" "$new_parts"
+run "$build/tests/twill_fitting_tests" "$new_parts"
 run "$build/tests/twill_optimizers_tests" 'OptimizerMatrix.*:Failures.*:OptimizerRegistry.*'
 exit "$status"
