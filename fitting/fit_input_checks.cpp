@@ -4,6 +4,7 @@
 
 #include "core/input_limits.hpp"
 #include "core/yaml_reader.hpp"
+#include "fitting/fit_config.hpp"
 
 namespace twill {
 
@@ -25,10 +26,10 @@ void check_bend_size(const Options& config, const ConfigKeyLocator& locate) {
 }  // namespace
 
 void check_fit_sizes(const Dataset& dataset, const Options& config, const ConfigKeyLocator& locate) {
-  const Options& res = config.get_section("resolution");
-  // In doubles: an absurd coarse_cells_across (up to 2^63) shifted by the levels must not wrap.
-  const double levels = static_cast<double>(res.get_int("levels"));
-  const double across = static_cast<double>(res.get_int("coarse_cells_across")) * std::exp2(levels - 1);
+  const FitResolution res = read_fit_config(config).resolution;
+  // In doubles: a large coarse_cells_across shifted by the levels must not wrap.
+  const double levels = res.levels;
+  const double across = res.coarse_cells_across * std::exp2(levels - 1);
   for (std::size_t i = 0; i < dataset.tensile.size(); ++i) {
     const TensileTest& t = dataset.tensile[i];
     const double along = std::max(1.0, std::round(across * t.gauge_length_mm / t.width_mm));
