@@ -48,9 +48,10 @@ std::vector<std::unique_ptr<FitStage>> make_stages(const FitConfig& config, cons
 /// Up-front checks of the protocol: unique curve labels, a warp-stretch stage (the initial
 /// guess starts from a11), and each stage's own check against the stages before it.
 void check_stages(const std::vector<std::unique_ptr<FitStage>>& stages, const Dataset& dataset,
-                  const ConfigKeyLocator& locate) {
+                  const FitConfig& config, const ConfigKeyLocator& locate) {
   ProtocolCheck check;
   check.dataset = &dataset;
+  check.levels = config.resolution.levels;
   check.locate = locate;
   bool has_eta1 = false;
   for (size_t i = 0; i < stages.size(); ++i) {
@@ -148,7 +149,8 @@ InputLocation default_config_location(const std::string& key) { return {"config"
 
 void check_fit_protocol(const Dataset& dataset, const Options& config, const Registry& registry,
                         const ConfigKeyLocator& locate) {
-  check_stages(make_stages(read_fit_config(config), registry), dataset, locate);
+  const FitConfig typed = read_fit_config(config);
+  check_stages(make_stages(typed, registry), dataset, typed, locate);
 }
 
 FitReport run_fit(const Dataset& dataset, const Options& options, const Registry& registry,
@@ -156,7 +158,7 @@ FitReport run_fit(const Dataset& dataset, const Options& options, const Registry
   const auto start = Clock::now();
   const FitConfig config = read_fit_config(options);
   std::vector<std::unique_ptr<FitStage>> stages = make_stages(config, registry);
-  check_stages(stages, dataset, default_config_location);
+  check_stages(stages, dataset, config, default_config_location);
   FitContext context(dataset, config, registry, progress);
   for (const auto& stage : stages)
     if (const CurveStage* curve = stage->curve_stage()) context.declared_curves.push_back(*curve);

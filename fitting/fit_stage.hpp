@@ -26,6 +26,7 @@ struct ProtocolCheck {
   const Dataset* dataset = nullptr;
   std::string key;                    ///< this stage's key path, e.g. "protocol[3]"
   std::vector<std::string> curve_labels;  ///< labels of the tensile-curve stages before it
+  int levels = 1;                     ///< the config's resolution levels
   ConfigKeyLocator locate;
 };
 

@@ -1,5 +1,6 @@
 // Stage `tensile-curve` (paper §5.2 steps 2, 3 and 5 with §5.4): one term of ψ — its
-// stiffness and curve (`term`) — fitted to the fit runs at `angle_deg` at the coarsest level,
+// stiffness and curve (`term`) — fitted to the fit runs at `angle_deg` at the coarsest level
+// (`level` 0; a finer one for studies),
 // raising the curve's degree from 1 while the average relative error is above `target_error`
 // and the last raise improved it by at least `min_improvement`, up to `max_degree`. Later
 // stages refer to it by `label` (strain-cutoff; resolution-ladder refits it at every level).
@@ -30,6 +31,7 @@ struct TensileCurveOptions {
   double min_improvement = 0.2;
   int raise_attempts = 3;
   bool uniform_starts = true;
+  int level = 0;
   bool validate(std::string* error) const;
 };
 
@@ -57,6 +59,10 @@ OptionBindings<TensileCurveOptions> tensile_curve_bindings() {
                         in_range(1, 6)),
       bool_option<S>("uniform_starts", &S::uniform_starts,
                      "refit each raise's start curve on the uniform-strain model (false: the plain starts)"),
+      // The paper chooses degrees at the coarsest level (§5.5.4); a finer one lets a study ask
+      // whether the coarse mesh's off-axis error steers the choice (issue #12).
+      integer_option<S>("level", &S::level, "the resolution level of the degree search (0: the coarsest)",
+                        in_range(0, 4)),
   };
 }
 
@@ -78,7 +84,17 @@ class TensileCurveStage final : public FitStage {
   explicit TensileCurveStage(TensileCurveOptions options)
       : options_(std::move(options)), stage_{options_.label, options_.angle_deg, &membrane_term(options_.term)} {}
 
-  std::string title() const override { return options_.label + " (degree, coarsest level)"; }
+  std::string title() const override {
+    return options_.label + (options_.level == 0 ? " (degree, coarsest level)"
+                                                 : " (degree, level " + std::to_string(options_.level) + ")");
+  }
+
+  void check(const ProtocolCheck& check) const override {
+    if (options_.level >= check.levels)
+      throw InputError(check.locate(check.key + ".level"),
+                       "level " + std::to_string(options_.level) + " is not one of the " + std::to_string(check.levels) +
+                           " resolution levels (resolution.levels)");
+  }
   const CurveStage* curve_stage() const override { return &stage_; }
 
   void run(FitContext& context, FitReport& out) override {
@@ -104,7 +120,7 @@ class TensileCurveStage final : public FitStage {
     const double min_improvement = options_.min_improvement;
     const size_t attempts = static_cast<size_t>(options_.raise_attempts);
     MaterialParameters best = context.params;
-    FitContext::CurveFit best_result = context.fit_curve(stage_, 0, &best);
+    FitContext::CurveFit best_result = context.fit_curve(stage_, options_.level, &best);
     if (!best_result.ok) throw std::runtime_error("stage " + stage_.label + ": degree 1 fit failed");
     while (curve_of(best).degree() < options_.max_degree && best_result.error > target) {
       const std::vector<MaterialParameters> starts = raised_starts(context, best);
@@ -115,7 +131,7 @@ class TensileCurveStage final : public FitStage {
         MaterialParameters trial = starts[a];
         context.say(0, fmt::format("{}: degree {} attempt {} starts with alpha_new = {:.3g}", stage_.label, degree,
                                    a + 1, curve_of(trial).alpha.back()));
-        const FitContext::CurveFit r = context.fit_curve(stage_, 0, &trial);
+        const FitContext::CurveFit r = context.fit_curve(stage_, options_.level, &trial);
         if (r.ok && (!raised_result.ok || r.error < raised_result.error)) {
           raised = trial;
           raised_result = r;
@@ -137,8 +153,9 @@ class TensileCurveStage final : public FitStage {
         break;
       }
     }
-    context.note(fmt::format("{}: degree {} chosen (error {:.2f} % at the coarsest level, target {:.1f} %)",
-                             stage_.label, curve_of(best).degree(), 100 * best_result.error, 100 * target));
+    const std::string where = options_.level == 0 ? "the coarsest level" : "level " + std::to_string(options_.level);
+    context.note(fmt::format("{}: degree {} chosen (error {:.2f} % at {}, target {:.1f} %)", stage_.label,
+                             curve_of(best).degree(), 100 * best_result.error, where, 100 * target));
     context.params = best;
   }
 
@@ -189,7 +206,7 @@ class TensileCurveStage final : public FitStage {
     std::vector<std::pair<double, MaterialParameters>> scored(candidates.size());
     tbb::parallel_for(size_t{0}, candidates.size(), [&](size_t i) {
       std::vector<std::shared_ptr<Predictor>> full;
-      for (const RunData* d : runs) full.push_back(context.tensile_experiment(*d, 0, candidates[i]));
+      for (const RunData* d : runs) full.push_back(context.tensile_experiment(*d, options_.level, candidates[i]));
       ParameterMap map(candidates[i], curve_only);
       FitObjective objective(map, full);
       const double value = objective.evaluate(map.initial_x(), nullptr);

@@ -237,6 +237,14 @@ TEST(FitProtocolAsData, StageReferringToALaterStageIsAnInputErrorNamingItsKey) {
     EXPECT_EQ(e.where().key, "protocol[3].stage") << e.what();
     EXPECT_NE(std::string(e.what()).find("'bias'"), std::string::npos) << e.what();
   }
+  Options too_fine = default_options(schema, &registry());
+  apply_override(too_fine, schema, &registry(), "protocol[1].level=3");  // levels 0, 1, 2
+  try {
+    check_fit_protocol(dataset, too_fine, registry(), [](const std::string& key) { return InputLocation{"", 0, key}; });
+    FAIL() << "level 3 of 3 levels accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.where().key, "protocol[1].level") << e.what();
+  }
   Options no_warp = without_stages(default_options(schema, &registry()), {"strain-cutoff"});
   std::vector<ComponentChoice> protocol = no_warp.get_component_list("protocol");
   protocol.erase(protocol.begin() + 1);  // the warp stage: nothing fits a11
