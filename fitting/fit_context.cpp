@@ -9,6 +9,7 @@
 
 #include "core/discretization_registry.hpp"
 #include "core/input_error.hpp"
+#include "experiments/uniform_strain.hpp"
 
 namespace twill {
 
@@ -165,6 +166,10 @@ std::shared_ptr<Experiment> FitContext::tensile_experiment(const RunData& d, int
   input.schedule = d.extension_mm;
   input.measured = d.force_N;
   return registry_.create<ExperimentFactories>(registry_category::kExperiment, config_.tensile_experiment, input);
+}
+
+std::shared_ptr<Predictor> FitContext::uniform_strain_predictor(const RunData& d) const {
+  return std::make_shared<UniformStrainPredictor>(run_label(d), setup_for(*d.test, 0), d.extension_mm, d.force_N);
 }
 
 std::unique_ptr<Optimizer> FitContext::make_optimizer(bool refine) const {

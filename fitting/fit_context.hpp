@@ -121,6 +121,8 @@ class FitContext {
                                    int cells_along, const MaterialParameters& p) const;
   /// A fit run's experiment at `level` from `p` (config experiments.tensile).
   std::shared_ptr<Experiment> tensile_experiment(const RunData& d, int level, const MaterialParameters& p) const;
+  /// A fit run's uniform-strain predictor (paper §5.3; the strip's cells do not matter to it).
+  std::shared_ptr<Predictor> uniform_strain_predictor(const RunData& d) const;
   /// The config's optimiser (or `choice`) with the stages' limits (`refine`: a ladder refit's).
   std::unique_ptr<Optimizer> make_optimizer(bool refine = false) const;
   std::unique_ptr<Optimizer> make_optimizer(ComponentChoice choice, bool refine = false) const;

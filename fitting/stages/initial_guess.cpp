@@ -8,7 +8,6 @@
 #include <cmath>
 
 #include "core/option_binding.hpp"
-#include "experiments/uniform_strain.hpp"
 #include "fitting/fit_context.hpp"
 #include "fitting/fit_stage.hpp"
 #include "fitting/stages/stage_kinds.hpp"
@@ -43,16 +42,11 @@ class InitialGuess final : public FitStage {
   }
 
  private:
-  static std::shared_ptr<Predictor> uniform_predictor(const FitContext& context, const RunData& d) {
-    return std::make_shared<UniformStrainPredictor>(FitContext::run_label(d), context.setup_for(*d.test, 0),
-                                                    d.extension_mm, d.force_N);
-  }
-
   static void fit_uniform_strain(FitContext& context, const CurveStage& stage, FitReport& out) {
     const auto runs = context.runs_for(stage.angle_deg);
     if (runs.empty()) return;
     std::vector<std::shared_ptr<Predictor>> predictors;
-    for (const RunData* d : runs) predictors.push_back(uniform_predictor(context, *d));
+    for (const RunData* d : runs) predictors.push_back(context.uniform_strain_predictor(*d));
     MaterialParameters& p = context.params;
     ParameterMap map(p, stage.free_parameters());
     FitObjective objective(map, predictors);
@@ -78,7 +72,7 @@ class InitialGuess final : public FitStage {
     for (const CurveStage& stage : context.declared_curves)
       for (const RunData* d : context.runs_for(stage.angle_deg)) {
         const std::shared_ptr<Experiment> full = context.tensile_experiment(*d, 0, p);
-        const std::shared_ptr<Predictor> uniform = uniform_predictor(context, *d);
+        const std::shared_ptr<Predictor> uniform = context.uniform_strain_predictor(*d);
         Eigen::VectorXd a, b;
         std::string message;
         if (k < out.initial_guess.size() && full->predict(p, {}, &a, nullptr, &message) &&

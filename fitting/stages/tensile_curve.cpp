@@ -14,7 +14,6 @@
 #include <tbb/parallel_for.h>
 
 #include "core/option_binding.hpp"
-#include "experiments/uniform_strain.hpp"
 #include "fitting/fit_context.hpp"
 #include "fitting/fit_stage.hpp"
 #include "fitting/stages/stage_kinds.hpp"
@@ -185,8 +184,7 @@ class TensileCurveStage final : public FitStage {
       if (options_.uniform_starts) {
         std::vector<std::shared_ptr<Predictor>> uniform;
         for (const RunData* d : runs)
-          uniform.push_back(std::make_shared<UniformStrainPredictor>(
-              FitContext::run_label(*d), context.setup_for(*d->test, 0), d->extension_mm, d->force_N));
+          uniform.push_back(context.uniform_strain_predictor(*d));
         ParameterMap map(trial, curve_only);
         FitObjective objective(map, uniform);
         const OptimizerResult r =
