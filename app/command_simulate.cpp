@@ -1,7 +1,7 @@
 // `twill simulate`: one registered experiment (experiments/experiment.hpp) from a params.yaml.
 //
 //   twill simulate --params P.yaml --test tensile --angle-deg A [--width-mm 50] [--gauge-mm 75]
-//                  --extensions-mm 0.5,1,2 [--discretization NAME] [--resolution 16x24]
+//                  --extensions-mm 0.5,1,2 [--rate-mm-min V] [--discretization NAME] [--resolution 16x24]
 //                  [--option key=value ...] [--experiment-option key=value ...]
 //                  [--out FILE.csv] [--json] [--mesh-out FILE.obj]
 //   twill simulate --params P.yaml --test bend --angle-deg A (--overhang-mm L[,L2...] | --find-overhang)
@@ -11,6 +11,8 @@
 // --extensions-mm (tensile, validation) or --overhang-mm (bend). Output: CSV with the schedule,
 // the observable and the experiment's extra columns (stdout without --out), or one JSON
 // object with --json. --find-overhang (bend only): `overhang_mm=<v>` for a 41.5° chord.
+// The params.yaml's effects (effects/effect_experiment.hpp) act on the simulation: a curve
+// with an effect on is this one command (rate effects need --rate-mm-min, their clock).
 #include <cstdio>
 #include <functional>
 #include <fstream>
@@ -25,7 +27,7 @@
 #include "core/obj_writer.hpp"
 #include "core/params_io.hpp"
 #include "core/yaml_reader.hpp"
-#include "effects/effect.hpp"
+#include "effects/effect_experiment.hpp"
 #include "experiments/experiment.hpp"
 #include "experiments/predictors.hpp"
 
@@ -35,7 +37,7 @@ namespace {
 struct SimulateArgs {
   std::string params, test, discretization = "catmull-clark-kl", resolution, out, mesh_out;
   double angle_deg = 90;
-  std::optional<double> width_mm, gauge_mm;
+  std::optional<double> width_mm, gauge_mm, rate_mm_min;
   std::string extensions;
   std::optional<std::string> overhangs;
   std::vector<std::string> options, experiment_options;
@@ -101,6 +103,8 @@ ExperimentInput simulate_input(Registry& registry, const SimulateArgs& args, con
   input.angle_deg = args.angle_deg;
   if (args.width_mm) input.width_mm = checked_argument(*args.width_mm, limits::kStripWidth, "--width-mm");
   if (args.gauge_mm) input.length_mm = checked_argument(*args.gauge_mm, limits::kStripLength, "--gauge-mm");
+  if (args.rate_mm_min)
+    input.rate_mm_min = checked_argument(*args.rate_mm_min, limits::kCrossheadRate, "--rate-mm-min");
   if (!args.resolution.empty()) {
     const auto [across, along] = parse_resolution(args.resolution, "--resolution");
     input.cells_across = across;
@@ -175,7 +179,7 @@ void write_mesh(const std::string& path, const Experiment& experiment) {
 
 // --find-overhang: the bend experiment's overhang search (not a schedule).
 void find_overhang(Experiment& experiment, const SimulateArgs& args) {
-  auto* bend = dynamic_cast<CantileverPredictor*>(&experiment);
+  auto* bend = dynamic_cast<CantileverPredictor*>(&innermost(experiment));
   if (!bend) throw InputError({"command line", 0, "--find-overhang"}, "applies to the bend experiment only");
   const OverhangSearchResult r = bend->experiment().find_overhang();
   if (args.json) {
@@ -190,15 +194,6 @@ void find_overhang(Experiment& experiment, const SimulateArgs& args) {
   if (!r.converged) throw std::runtime_error("the overhang search did not converge: " + r.message);
 }
 
-// The material with every effect's law hook applied (effects/effect.hpp). Per-run set-up
-// hooks need a run's values, which a single simulation does not have: the nominal set-up.
-MaterialParameters with_effects_on_the_law(const MaterialParameters& p, const Registry& registry) {
-  MaterialParameters adjusted = p;
-  for (const ComponentChoice& choice : p.effects)
-    adjusted = registry.create<EffectFactories>(registry_category::kEffect, choice)->adjusted_material(adjusted);
-  return adjusted;
-}
-
 void run_simulation(Registry& registry, const SimulateArgs& args, const MaterialParameters& p) {
   const auto& category = registry.category<ExperimentFactories>(registry_category::kExperiment);
   if (!category.find(args.test))
@@ -206,7 +201,7 @@ void run_simulation(Registry& registry, const SimulateArgs& args, const Material
                      "unknown experiment '" + excerpt(args.test) + "' (known: " + category.known_names() + ")");
   const Options options = entry_options(registry, category.at(args.test), args.experiment_options);
   const ExperimentInput input = simulate_input(registry, args, options, p);
-  std::unique_ptr<Experiment> experiment = category.create(args.test, options, input);
+  std::unique_ptr<Experiment> experiment = create_experiment(registry, args.test, options, input);
   if (args.find_overhang) return find_overhang(*experiment, args);
   if (input.schedule.empty())
     throw InputError({"command line", 0, schedule_flag(experiment->schedule_quantity())},
@@ -228,6 +223,7 @@ void add_simulate_command(CLI::App& app, Context& context) {
   cmd->add_option("--width-mm", args->width_mm, "strip width (tensile 50, bend 25)");
   cmd->add_option("--gauge-mm", args->gauge_mm, "tensile gauge length (75)");
   cmd->add_option("--extensions-mm", args->extensions, "tensile: comma-separated clamp extensions, applied in order");
+  cmd->add_option("--rate-mm-min", args->rate_mm_min, "tensile: crosshead speed (the clock of rate effects)");
   cmd->add_option("--overhang-mm", args->overhangs, "bend: comma-separated overhang lengths");
   cmd->add_flag("--find-overhang", args->find_overhang, "bend: find the overhang with a 41.5 deg chord angle");
   cmd->add_option("--discretization", args->discretization, "registered discretization (twill list)");
@@ -241,8 +237,7 @@ void add_simulate_command(CLI::App& app, Context& context) {
   cmd->add_flag("--out-of-plane", args->out_of_plane, "tensile: solve in 3-D (experiment option planar=false)");
   cmd->callback([args, &context] {
     checked_argument(args->angle_deg, limits::kAngle, "--angle-deg");
-    const MaterialParameters p = with_effects_on_the_law(read_params_file(args->params, &context.registry),
-                                                         context.registry);
+    const MaterialParameters p = read_params_file(args->params, &context.registry);
     if (args->out_of_plane) args->experiment_options.push_back("planar=false");
     run_simulation(context.registry, *args, p);
   });

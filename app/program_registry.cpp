@@ -20,6 +20,9 @@ void register_program(Registry& registry) {
 
   // effect
   register_effects(registry);
+  register_hysteresis(registry);
+  register_poisson(registry);
+  register_rate_dependence(registry);
 
   // stage
   register_fit_stages(registry);

@@ -60,7 +60,8 @@ ParameterMap::ParameterMap(const MaterialParameters& start,
   scale_.resize(dimension());
   for (int i = 0; i < dimension(); ++i) {
     const double v = k0_[free_[static_cast<size_t>(i)]];
-    scale_[i] = v != 0 ? std::abs(v) : 1.0;
+    const ParameterRange* range = range_of(free_[static_cast<size_t>(i)]);
+    scale_[i] = range && range->typical > 0 ? range->typical : v != 0 ? std::abs(v) : 1.0;
   }
   dependent_ = free_;
   auto add_dependent = [this](int j) {
@@ -149,20 +150,32 @@ Eigen::MatrixXd ParameterMap::jacobian(const Eigen::VectorXd& x) const {
   return out;
 }
 
+const ParameterRange* ParameterMap::range_of(int flat) const {
+  const std::string name = start_.parameter_names()[static_cast<size_t>(flat)];
+  for (const ParameterRange& r : options_.ranges)
+    if (r.name == name) return &r;
+  return nullptr;
+}
+
 Eigen::VectorXd ParameterMap::lower_bounds() const {
   Eigen::VectorXd lower =
       Eigen::VectorXd::Constant(dimension(), -std::numeric_limits<double>::infinity());
   for (int i = 0; i < dimension(); ++i) {
     const int j = free_[static_cast<size_t>(i)];
-    if (j == FlatLayout::kDensity || j == FlatLayout::kThickness || j == FlatLayout::kA11 ||
-        j == FlatLayout::kA22 || j == FlatLayout::kG12)
+    if (const ParameterRange* range = range_of(j))
+      lower[i] = range->lower / scale_[i];
+    else if (j == FlatLayout::kDensity || j == FlatLayout::kThickness || j == FlatLayout::kA11 ||
+             j == FlatLayout::kA22 || j == FlatLayout::kG12)
       lower[i] = 1e-6 * k0_[j] / scale_[i];
   }
   return lower;
 }
 
 Eigen::VectorXd ParameterMap::upper_bounds() const {
-  return Eigen::VectorXd::Constant(dimension(), std::numeric_limits<double>::infinity());
+  Eigen::VectorXd upper = Eigen::VectorXd::Constant(dimension(), std::numeric_limits<double>::infinity());
+  for (int i = 0; i < dimension(); ++i)
+    if (const ParameterRange* range = range_of(free_[static_cast<size_t>(i)])) upper[i] = range->upper / scale_[i];
+  return upper;
 }
 
 // ---------------------------------------------------------------------------------------------

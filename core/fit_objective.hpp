@@ -19,6 +19,7 @@
 //   - FitObjective: a Problem (optimizers know nothing of cloth) summing over predictors.
 #include <Eigen/Core>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -46,9 +47,20 @@ class Predictor {
   virtual long equilibrium_solves() const = 0;
 };
 
+/// Bounds and scale of a flat entry the map does not know by itself, e.g. an effect's
+/// parameter (effects/effect.hpp: effect_parameters() has its bounds from the schema).
+struct ParameterRange {
+  std::string name;  ///< flat name, e.g. "hysteresis.warp_friction_N_m"
+  double lower = -std::numeric_limits<double>::infinity();
+  double upper = std::numeric_limits<double>::infinity();
+  /// The magnitude x = 1 stands for; 0: from the start value as for any entry (below).
+  double typical = 0;
+};
+
 /// Maps the optimiser's unknowns x (n) to material parameters k(x) and gives ∂k/∂x.
 ///   k_j = s_j · x_j for the free flat entries j (s_j = |k0_j|, or 1 where k0_j = 0, so x
-///   starts at ±1 or 0: well scaled for every optimiser), k0 elsewhere;
+///   starts at ±1 or 0: well scaled for every optimiser; a range's `typical` when given), k0
+///   elsewhere; bounds from `ranges` where given;
 ///   tie_a12: a12 = ½ min(a11, a22) after the above (paper §5.2), when a11 or a22 moves;
 ///   rescale_with_thickness: a11, a12, a22, G12 = k0 · τ0/τ (paper §5.2 step 7: the bend
 ///   stage changes τ without changing τ·a, so the tensile fits stay exact).
@@ -57,6 +69,7 @@ class ParameterMap {
   struct Options {
     bool tie_a12 = true;
     bool rescale_with_thickness = false;
+    std::vector<ParameterRange> ranges;  ///< by flat name; names not in the flat vector are ignored
   };
   /// `free_names`: flat-entry names (parameters.hpp, e.g. "a11_Pa", "eta1.alpha[0]") or
   /// patterns ending in '*' ("eta1.*"). Throws std::invalid_argument for a name that matches
@@ -92,6 +105,8 @@ class ParameterMap {
   std::vector<int> dependent_;
   Eigen::VectorXd scale_;
   bool tie_active_ = false;  ///< tie_a12 and a11 or a22 moves (a12 is otherwise left as given)
+  /// The range given for flat entry `flat`, or nullptr.
+  const ParameterRange* range_of(int flat) const;
 };
 
 /// ε(x) of Eq. 3 over a set of predictors, as a Problem for any optimiser.

@@ -2,6 +2,7 @@
 
 #include <cassert>
 #include <stdexcept>
+#include <variant>
 
 namespace twill {
 namespace {
@@ -26,13 +27,28 @@ void append_curve_names(const std::string& name, const Curve& c, std::vector<std
   for (int i = 0; i < c.degree(); ++i) out.push_back(name + ".alpha[" + std::to_string(i) + "]");
 }
 
+// Calls visit(name, value) for every effect parameter (double options, flat order).
+template <class Effects, class Visit>
+void for_each_effect_parameter(Effects& effects, Visit visit) {
+  for (auto& effect : effects)
+    for (auto& entry : effect.options.entries())
+      if (std::holds_alternative<double>(entry.value)) visit(effect.name + "." + entry.key, effect, entry.key);
+}
+
+int count_effect_parameters(const std::vector<ComponentChoice>& effects) {
+  int n = 0;
+  for_each_effect_parameter(effects, [&n](const std::string&, const ComponentChoice&, const std::string&) { ++n; });
+  return n;
+}
+
 }  // namespace
 
 FlatLayout::FlatLayout(const MaterialParameters& p) {
   eta1 = kFirstCurve;
   eta3 = eta1 + 2 * p.eta1.degree() - 1;
   eta4 = eta3 + 2 * p.eta3.degree() - 1;
-  size = eta4 + 2 * p.eta4.degree() - 1;
+  effects = eta4 + 2 * p.eta4.degree() - 1;
+  size = effects + count_effect_parameters(p.effects);
 }
 
 int MaterialParameters::flat_size() const { return FlatLayout(*this).size; }
@@ -49,6 +65,9 @@ Eigen::VectorXd MaterialParameters::to_flat() const {
   append_curve_flat(eta1, flat, at);
   append_curve_flat(eta3, flat, at);
   append_curve_flat(eta4, flat, at);
+  for_each_effect_parameter(effects, [&](const std::string&, const ComponentChoice& effect, const std::string& key) {
+    flat[at++] = effect.options.get_double(key);
+  });
   assert(at == flat.size());
   return flat;
 }
@@ -68,6 +87,9 @@ void MaterialParameters::set_from_flat(const Eigen::VectorXd& flat) {
   read_curve_flat(eta1, flat, at);
   read_curve_flat(eta3, flat, at);
   read_curve_flat(eta4, flat, at);
+  for (ComponentChoice& effect : effects)
+    for (const OptionEntry& entry : effect.options.entries())
+      if (std::holds_alternative<double>(entry.value)) effect.options.set(entry.key, flat[at++]);
 }
 
 std::vector<std::string> MaterialParameters::parameter_names() const {
@@ -76,6 +98,9 @@ std::vector<std::string> MaterialParameters::parameter_names() const {
   append_curve_names("eta1", eta1, names);
   append_curve_names("eta3", eta3, names);
   append_curve_names("eta4", eta4, names);
+  for_each_effect_parameter(effects, [&names](const std::string& name, const ComponentChoice&, const std::string&) {
+    names.push_back(name);
+  });
   return names;
 }
 

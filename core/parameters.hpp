@@ -12,6 +12,11 @@
 //   then for each curve c in (eta1, eta3, eta4), degree d:
 //     c.mu[1] … c.mu[d-1]      (d − 1 entries; mu[0] = 1 − Σ_{i≥1} mu[i] is *dependent*)
 //     c.alpha[0] … c.alpha[d-1] (d entries)
+//   then for each effect in `effects` (in order), each of its double options in their
+//   resolved (schema) order, named "<effect>.<option>", e.g. "hysteresis.warp_friction_N_m"
+//   (effects/effect.hpp: the effects' parameters; integer, bool and text options are choices,
+//   not parameters, and stay out). The law does not depend on them (their columns of every
+//   law derivative are zero); effects' hooks do (effects/effect_experiment.hpp).
 //
 // Σμ = 1 (η'(0) = 1, paper §3.1) therefore holds by construction for every flat vector.
 // Strain cutoffs are not in the flat vector: the protocol sets them by rule (§5.2 steps 4, 6),
@@ -59,8 +64,8 @@ struct MaterialParameters {
   Cutoffs cutoffs;
   /// The model's effects (effects/effect.hpp) with their parameters, as params.yaml's
   /// `effects:` carries them (docs/dataset-format.md): registered name and resolved options.
-  /// Empty: the paper's model. Not part of the flat vector below (effects/effect.hpp has the
-  /// effects' own flat view).
+  /// Empty: the paper's model. Their double options are the last block of the flat vector
+  /// (layout above).
   std::vector<ComponentChoice> effects;
 
   /// Number of entries of the flat vector (depends on the three degrees).
@@ -84,6 +89,7 @@ struct FlatLayout {
   static constexpr int kDensity = 0, kThickness = 1, kA11 = 2, kA12 = 3, kA22 = 4, kG12 = 5;
   static constexpr int kFirstCurve = 6;
   int eta1 = 0, eta3 = 0, eta4 = 0;  ///< offset of each curve's block (its mu[1] entry)
+  int effects = 0;  ///< offset of the effects' parameters (= the law's parameter count)
   int size = 0;
   explicit FlatLayout(const MaterialParameters& p);
   /// Offset of a curve block's first alpha entry.

@@ -6,9 +6,43 @@
 
 namespace twill {
 
+namespace {
+
+// Units of more than one word, as a name's suffix spells them and as reports print them.
+const std::vector<std::pair<std::string, std::string>> kCompoundUnits = {{"_N_m", "N/m"}, {"_mm_min", "mm/min"}};
+// Suffixes of dimensionless parameters.
+const std::vector<std::string> kDimensionless = {"_ratio", "_strain"};
+
+bool ends_with(const std::string& text, const std::string& suffix) {
+  return text.size() > suffix.size() && text.compare(text.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+}  // namespace
+
 std::string unit_of(const std::string& name) {
+  for (const auto& [suffix, unit] : kCompoundUnits)
+    if (ends_with(name, suffix)) return unit;
+  for (const std::string& suffix : kDimensionless)
+    if (ends_with(name, suffix)) return "1";
   const auto cut = name.rfind('_');
   return cut == std::string::npos ? std::string() : name.substr(cut + 1);
+}
+
+int effect_flat_index(const MaterialParameters& k, const std::string& effect, const std::string& option) {
+  return k.index_of(effect + "." + option);
+}
+
+ObservableChange ObservableChange::zero(Eigen::Index m, Eigen::Index n) {
+  return {Eigen::VectorXd::Zero(m), Eigen::MatrixXd::Zero(m, n), Eigen::VectorXd::Zero(m)};
+}
+
+MaterialParameters Effect::adjusted_material(const MaterialParameters& k, Eigen::MatrixXd* jacobian) const {
+  if (jacobian) *jacobian = Eigen::MatrixXd::Identity(k.flat_size(), k.flat_size());
+  return k;
+}
+
+ObservableChange Effect::observable_change(const RunConditions& run, const MaterialParameters& k) const {
+  return ObservableChange::zero(static_cast<Eigen::Index>(run.schedule.size()), k.flat_size());
 }
 
 std::vector<EffectParameter> effect_parameters(const std::vector<ComponentChoice>& effects, const Registry& registry) {

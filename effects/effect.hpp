@@ -12,11 +12,16 @@
 //   - a data predicate, missing_data(): what a dataset must carry for the effect to be
 //     identifiable (unloading rows, several rates, lateral strain, bend directions, repeats
 //     per angle), in words when it is missing;
-//   - hooks through which it changes predictions: the material law, an experiment's set-up,
-//     the observables. Every hook has a no-op default; an effect overrides the ones it uses.
-//     A set-up hook returns d(set-up quantity)/d(per-run parameter), which chains with the
-//     experiment's set-up derivatives (experiments/experiment.hpp) into exact derivatives
-//     of the observables in the effect's parameters.
+//   - hooks through which it changes predictions: the material law (with ∂k'/∂k), an
+//     experiment's set-up, the observables (what a path-dependent effect adds along the run's
+//     schedule, with its derivatives). Every hook has a no-op default; an effect overrides the
+//     ones it uses. A set-up hook returns d(set-up quantity)/d(per-run parameter), which
+//     chains with the experiment's set-up derivatives (experiments/experiment.hpp) into exact
+//     derivatives of the observables in the effect's parameters. effect_experiment.hpp puts
+//     the law and observable hooks around any registered experiment.
+//
+// The model parameters are also the last block of the material's flat vector
+// (core/parameters.hpp), so a fit frees them by name like any material parameter.
 //
 // Flat view: effect_parameters() lists the model parameters of a model's effects as the
 // optimisers see any parameter (name, unit, bounds, value; in a fixed order) and
@@ -52,6 +57,27 @@ struct SetupChange {
   Eigen::VectorXd gradient;  ///< one entry per per-run parameter of the effect
 };
 
+/// What an observable hook sees of one run (effect_experiment.hpp builds it from the
+/// experiment and its input).
+struct RunConditions {
+  std::string observable;         ///< the experiment's, e.g. "force_N"
+  std::string schedule_quantity;  ///< e.g. "extension_mm"
+  std::vector<double> schedule;   ///< in the order the lab applied it (loading, unloading)
+  double angle_deg = 90;          ///< strip axis vs weft [deg]
+  double width_mm = 0, gauge_length_mm = 0;  ///< the strip's (0: not a strip)
+  double rate_mm_min = 0;         ///< crosshead speed; 0 when not known
+  std::vector<double> time_s;     ///< per schedule entry; empty when not known
+};
+
+/// What an observable hook adds to a run's m observables, with its derivatives.
+struct ObservableChange {
+  Eigen::VectorXd added;    ///< m entries, in the observable's unit
+  Eigen::MatrixXd d_flat;   ///< m × k.flat_size(): ∂added/∂k
+  Eigen::VectorXd d_angle;  ///< m: ∂added/∂(angle_deg)
+  /// No change for m observables and a flat vector of n entries.
+  static ObservableChange zero(Eigen::Index m, Eigen::Index n);
+};
+
 class Effect {
  public:
   virtual ~Effect() = default;
@@ -69,8 +95,10 @@ class Effect {
     return model;
   }
 
-  /// Hook: the material law an experiment simulates. Default: unchanged.
-  virtual MaterialParameters adjusted_material(const MaterialParameters& parameters) const { return parameters; }
+  /// Hook: the material law an experiment simulates, k -> k'. With `jacobian`, also ∂k'/∂k
+  /// (flat × flat in k's layout, which k' shares; the effect's own parameters are k's last
+  /// columns, parameters.hpp), so that predictions chain to k exactly. Default: k' = k.
+  virtual MaterialParameters adjusted_material(const MaterialParameters& k, Eigen::MatrixXd* jacobian) const;
   /// Hook: the set-up of one run's experiment, given that run's per-run values. Returns the
   /// quantities it changed with their derivatives. Default: no change.
   virtual std::vector<SetupChange> adjust_setup(const Eigen::VectorXd& run_values, ExperimentInput* input) const {
@@ -78,12 +106,13 @@ class Effect {
     (void)input;
     return {};
   }
-  /// Hook: the observables after simulation, given the run's per-run values. Default:
-  /// unchanged. (Its derivative counterpart comes with the first effect that uses this hook.)
-  virtual void adjust_observables(const Eigen::VectorXd& run_values, Eigen::VectorXd* values) const {
-    (void)run_values;
-    (void)values;
-  }
+  /// Whether observable_change() adds anything (false by default: no path-dependent part).
+  virtual bool changes_observables() const { return false; }
+  /// Hook: what the effect adds to a run's observables, given the run's conditions and the
+  /// (law-adjusted) material k, with its derivatives in k's flat vector and in the strip's
+  /// angle. Only called when changes_observables(). An effect that cannot predict this run
+  /// (e.g. a rate effect without a clock) throws InputError saying what is missing.
+  virtual ObservableChange observable_change(const RunConditions& run, const MaterialParameters& k) const;
 };
 
 using EffectFactories = FactoryCategory<Effect>;
@@ -97,8 +126,12 @@ std::vector<EffectParameter> effect_parameters(const std::vector<ComponentChoice
 void set_effect_parameters(const Eigen::VectorXd& values, const Registry& registry,
                            std::vector<ComponentChoice>* effects);
 
-/// The unit of a parameter named with its unit as suffix ("spread_deg" -> "deg"); empty when
-/// the name has no '_'.
+/// The unit of a parameter named with its unit as suffix: "spread_deg" -> "deg",
+/// "warp_friction_N_m" -> "N/m" (compound units: kCompoundUnits in effect.cpp), and "1" for
+/// a dimensionless name ending in _ratio or _strain; empty when the name has no '_'.
 std::string unit_of(const std::string& name);
+
+/// The flat index (parameters.hpp) of the effect parameter "<effect>.<option>" of k.
+int effect_flat_index(const MaterialParameters& k, const std::string& effect, const std::string& option);
 
 }  // namespace twill

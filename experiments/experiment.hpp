@@ -43,6 +43,11 @@ struct ExperimentInput {
   double width_mm = 0;         ///< strip width; 0: the experiment's standard width
   double length_mm = 0;        ///< tensile gauge length; 0: the standard one (unused by bend)
   std::vector<double> schedule;  ///< tensile: extensions [mm]; bend: overhangs [mm]
+  /// The run's clock, for effects whose predictions depend on time (effects/effect.hpp):
+  /// crosshead speed [mm/min] (0: not known) and the time of each schedule entry [s] (empty:
+  /// not known). The elastic experiments ignore both.
+  double rate_mm_min = 0;
+  std::vector<double> time_s;
   /// Measured observables at the schedule (same size, none zero), or empty (simulation only).
   Eigen::VectorXd measured;
   int cells_across = 0;        ///< resolution; 0: the experiment's default

@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "core/discretization_registry.hpp"
+#include "effects/effect_experiment.hpp"
 #include "core/input_error.hpp"
 #include "experiments/uniform_strain.hpp"
 
@@ -50,6 +51,7 @@ RunData measured_points(const TensileTest& test, const TensileRun& run, const Fi
   d.force_N.resize(static_cast<Eigen::Index>(chosen.size()));
   for (size_t j = 0; j < chosen.size(); ++j) {
     d.extension_mm.push_back(run.extension_mm[chosen[j]]);
+    if (run.has_time()) d.time_s.push_back(run.time_s[chosen[j]]);
     d.force_N[static_cast<Eigen::Index>(j)] = run.force_N[chosen[j]];
   }
   if (d.extension_mm.size() < 2)
@@ -165,7 +167,9 @@ std::shared_ptr<Experiment> FitContext::tensile_experiment(const RunData& d, int
   input.length_mm = s.gauge_length_mm;
   input.schedule = d.extension_mm;
   input.measured = d.force_N;
-  return registry_.create<ExperimentFactories>(registry_category::kExperiment, config_.tensile_experiment, input);
+  input.rate_mm_min = d.test->rate_mm_min.value_or(0.0);
+  input.time_s = d.time_s;
+  return create_experiment(registry_, config_.tensile_experiment, input);
 }
 
 std::shared_ptr<Predictor> FitContext::uniform_strain_predictor(const RunData& d) const {

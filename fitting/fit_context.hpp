@@ -35,6 +35,7 @@ struct RunData {
   const TensileRun* run = nullptr;
   std::vector<double> extension_mm;
   Eigen::VectorXd force_N;
+  std::vector<double> time_s;  ///< of the chosen rows; empty when the run has no clock
 };
 RunData measured_points(const TensileTest& test, const TensileRun& run, const FitDataSelection& data);
 

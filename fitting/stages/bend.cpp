@@ -10,6 +10,7 @@
 #include <stdexcept>
 
 #include "core/option_binding.hpp"
+#include "effects/effect_experiment.hpp"
 #include "experiments/cantilever.hpp"
 #include "experiments/predictors.hpp"
 #include "fitting/fit_context.hpp"
@@ -91,7 +92,8 @@ class BendStage final : public FitStage {
 
   /// The cantilever of the bend experiment (null for another kind, which has no overhang search).
   static CantileverPredictor* cantilever(const std::shared_ptr<Predictor>& p) {
-    return dynamic_cast<CantileverPredictor*>(p.get());
+    auto* experiment = dynamic_cast<Experiment*>(p.get());
+    return experiment ? dynamic_cast<CantileverPredictor*>(&innermost(*experiment)) : nullptr;
   }
   static std::string resolution(const std::shared_ptr<Predictor>& p) {
     CantileverPredictor* c = cantilever(p);
@@ -105,8 +107,7 @@ class BendStage final : public FitStage {
     ExperimentInput input = context.experiment_input(b.label, b.angle_deg, b.width_mm, 0, 0, context.params);
     input.schedule = {mean(b.overhang_mm)};
     input.measured = Eigen::VectorXd::Constant(1, b.chord_angle_deg);
-    return context.registry().create<ExperimentFactories>(registry_category::kExperiment,
-                                                          context.config().bend_experiment, input);
+    return create_experiment(context.registry(), context.config().bend_experiment, input);
   }
 
   FitBend result(const FitContext& context, const BendTest& b, double chord_angle_deg) const {

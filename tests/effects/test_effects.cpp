@@ -21,22 +21,8 @@ using namespace twill::testing;
 
 // ---- registry-driven: derivatives in every per-run parameter through the set-up hook ----------
 
-struct Case {
-  std::string effect, experiment, discretization;
-};
 
-// GoogleTest's description of a case (instead of its bytes).
-void PrintTo(const Case& c, std::ostream* os) { *os << c.effect << " via " << c.experiment << " on " << c.discretization; }
-
-std::vector<Case> every_case() {
-  std::vector<Case> cases;
-  for (const std::string& f : registered(registry_category::kEffect))
-    for (const std::string& e : registered(registry_category::kExperiment))
-      for (const std::string& d : registered(registry_category::kDiscretization)) cases.push_back({f, e, d});
-  return cases;
-}
-
-class EveryEffect : public ::testing::TestWithParam<Case> {
+class EveryEffect : public ::testing::TestWithParam<EffectCase> {
  protected:
   static constexpr double kAngle_deg = 45.0;
   std::unique_ptr<Effect> effect() const {
@@ -122,9 +108,8 @@ TEST_P(EveryEffect, ModelParametersHaveUnitsAndBounds) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Registered, EveryEffect, ::testing::ValuesIn(every_case()), [](const auto& info) {
-  return test_name(info.param.effect + "_" + info.param.experiment + "_" + info.param.discretization);
-});
+INSTANTIATE_TEST_SUITE_P(Registered, EveryEffect, ::testing::ValuesIn(every_effect_case()),
+                         [](const auto& info) { return effect_case_name(info.param); });
 
 // ---- params.yaml's effects: key ----------------------------------------------------------------
 

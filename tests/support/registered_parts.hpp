@@ -96,6 +96,27 @@ inline std::unique_ptr<Experiment> small_experiment(const std::string& name, con
   return create(input);
 }
 
+/// One effect on one experiment on one discretisation: the registry-driven effect tests' case.
+struct EffectCase {
+  std::string effect, experiment, discretization;
+};
+/// GoogleTest's description of a case (instead of its bytes).
+inline void PrintTo(const EffectCase& c, std::ostream* os) {
+  *os << c.effect << " via " << c.experiment << " on " << c.discretization;
+}
+/// Every registered effect × experiment × discretisation.
+inline std::vector<EffectCase> every_effect_case() {
+  std::vector<EffectCase> cases;
+  for (const std::string& f : registered(registry_category::kEffect))
+    for (const std::string& e : registered(registry_category::kExperiment))
+      for (const std::string& d : registered(registry_category::kDiscretization)) cases.push_back({f, e, d});
+  return cases;
+}
+/// The case's test name, e.g. hysteresis_tensile_catmull_clark_kl.
+inline std::string effect_case_name(const EffectCase& c) {
+  return test_name(c.effect + "_" + c.experiment + "_" + c.discretization);
+}
+
 // FD step: a fraction of the parameter's magnitude (1 when it is zero).
 inline double relative_step(double value, double fraction) {
   return fraction * (value != 0 ? std::abs(value) : 1.0);

@@ -1,0 +1,139 @@
+#include "effects/effect_experiment.hpp"
+
+#include <stdexcept>
+
+namespace twill {
+namespace {
+
+// The flat entries of k' that the inner experiment must differentiate: law entries (before
+// the effects' block, which the law does not see) reached by some requested column of J.
+std::vector<int> law_entries_reached(const Eigen::MatrixXd& jacobian, const std::vector<int>& flat, int law_size) {
+  std::vector<int> reached;
+  for (int i = 0; i < law_size; ++i)
+    for (int j : flat)
+      if (jacobian(i, j) != 0.0) {
+        reached.push_back(i);
+        break;
+      }
+  return reached;
+}
+
+// Columns `flat` of m.
+Eigen::MatrixXd columns(const Eigen::MatrixXd& m, const std::vector<int>& flat) {
+  Eigen::MatrixXd out(m.rows(), static_cast<Eigen::Index>(flat.size()));
+  for (size_t c = 0; c < flat.size(); ++c) out.col(static_cast<Eigen::Index>(c)) = m.col(flat[c]);
+  return out;
+}
+
+}  // namespace
+
+EffectExperiment::EffectExperiment(std::unique_ptr<Experiment> inner, const Registry& registry, RunConditions run)
+    : inner_(std::move(inner)), registry_(registry), run_(std::move(run)) {
+  run_.observable = inner_->observable();
+  run_.schedule_quantity = inner_->schedule_quantity();
+  run_.schedule = inner_->schedule();
+}
+
+EffectExperiment::Adjusted EffectExperiment::adjust(const MaterialParameters& k, bool with_jacobian) const {
+  Adjusted a;
+  a.material = k;
+  const Eigen::Index n = k.flat_size();
+  if (with_jacobian) a.jacobian = Eigen::MatrixXd::Identity(n, n);
+  for (const ComponentChoice& choice : k.effects) {
+    a.effects.push_back(registry_.create<EffectFactories>(registry_category::kEffect, choice));
+    Eigen::MatrixXd step;
+    a.material = a.effects.back()->adjusted_material(a.material, with_jacobian ? &step : nullptr);
+    if (with_jacobian) a.jacobian = step * a.jacobian;
+  }
+  return a;
+}
+
+void EffectExperiment::add_observable_changes(const Adjusted& a, Eigen::VectorXd* values, Eigen::MatrixXd* d_adjusted,
+                                              Eigen::VectorXd* d_angle) const {
+  const Eigen::Index m = values->size();
+  for (const auto& effect : a.effects) {
+    if (!effect->changes_observables()) continue;
+    const ObservableChange change = effect->observable_change(run_, a.material);
+    // The path state of entry i depends on entries ≤ i only: the first m are those of a run
+    // that stopped early.
+    *values += change.added.head(m);
+    if (d_adjusted) *d_adjusted += change.d_flat.topRows(m);
+    if (d_angle) *d_angle += change.d_angle.head(m);
+  }
+}
+
+ExperimentRun EffectExperiment::simulate(const MaterialParameters& k) {
+  const Adjusted a = adjust(k, false);
+  ExperimentRun run = inner_->simulate(a.material);
+  add_observable_changes(a, &run.values, nullptr, nullptr);
+  return run;
+}
+
+bool EffectExperiment::predict(const MaterialParameters& k, const std::vector<int>& flat, Eigen::VectorXd* values,
+                               Eigen::MatrixXd* jacobian, std::string* message) {
+  const Adjusted a = adjust(k, jacobian != nullptr);
+  if (!jacobian) {
+    if (!inner_->predict(a.material, {}, values, nullptr, message)) return false;
+    add_observable_changes(a, values, nullptr, nullptr);
+    return true;
+  }
+  const std::vector<int> reached = law_entries_reached(a.jacobian, flat, FlatLayout(k).effects);
+  Eigen::MatrixXd inner_jacobian;
+  if (!inner_->predict(a.material, reached, values, &inner_jacobian, message)) return false;
+  Eigen::MatrixXd d_adjusted = Eigen::MatrixXd::Zero(values->size(), k.flat_size());
+  for (size_t c = 0; c < reached.size(); ++c) d_adjusted.col(reached[c]) = inner_jacobian.col(static_cast<Eigen::Index>(c));
+  add_observable_changes(a, values, &d_adjusted, nullptr);
+  *jacobian = d_adjusted * columns(a.jacobian, flat);
+  return true;
+}
+
+bool EffectExperiment::predict_setup_derivatives(const MaterialParameters& k, const std::vector<std::string>& quantities,
+                                                 Eigen::VectorXd* values, Eigen::MatrixXd* jacobian,
+                                                 std::string* message) {
+  const Adjusted a = adjust(k, false);
+  if (!inner_->predict_setup_derivatives(a.material, quantities, values, jacobian, message)) return false;
+  Eigen::VectorXd d_angle = Eigen::VectorXd::Zero(values->size());
+  add_observable_changes(a, values, nullptr, &d_angle);
+  for (size_t q = 0; q < quantities.size(); ++q)
+    if (quantities[q] == setup_quantity::kAngle) jacobian->col(static_cast<Eigen::Index>(q)) += d_angle;
+  return true;
+}
+
+std::unique_ptr<Experiment> create_experiment(const Registry& registry, const std::string& name, const Options& options,
+                                              const ExperimentInput& input) {
+  const ComponentChoice choice{registry_category::kExperiment, name, options};
+  if (input.start.effects.empty()) return registry.create<ExperimentFactories>(registry_category::kExperiment, choice, input);
+  ExperimentInput adjusted = input;
+  adjusted.start = law_adjusted(input.start, registry);
+  std::unique_ptr<Experiment> experiment =
+      registry.create<ExperimentFactories>(registry_category::kExperiment, choice, adjusted);
+  RunConditions run;
+  run.angle_deg = input.angle_deg;
+  auto resolved = [&options](double given, const char* key) {
+    return given > 0 ? given : options.has(key) ? options.get_double(key) : 0.0;
+  };
+  run.width_mm = resolved(input.width_mm, "width_mm");
+  run.gauge_length_mm = resolved(input.length_mm, "gauge_length_mm");
+  run.rate_mm_min = input.rate_mm_min;
+  run.time_s = input.time_s;
+  return std::make_unique<EffectExperiment>(std::move(experiment), registry, std::move(run));
+}
+
+std::unique_ptr<Experiment> create_experiment(const Registry& registry, const ComponentChoice& choice,
+                                              const ExperimentInput& input) {
+  return create_experiment(registry, choice.name, choice.options, input);
+}
+
+Experiment& innermost(Experiment& experiment) {
+  auto* wrapper = dynamic_cast<EffectExperiment*>(&experiment);
+  return wrapper ? innermost(wrapper->inner()) : experiment;
+}
+
+MaterialParameters law_adjusted(const MaterialParameters& k, const Registry& registry) {
+  MaterialParameters adjusted = k;
+  for (const ComponentChoice& choice : k.effects)
+    adjusted = registry.create<EffectFactories>(registry_category::kEffect, choice)->adjusted_material(adjusted, nullptr);
+  return adjusted;
+}
+
+}  // namespace twill
