@@ -39,10 +39,10 @@ EffectExperiment::Adjusted EffectExperiment::adjust(const MaterialParameters& k,
   a.material = k;
   const Eigen::Index n = k.flat_size();
   if (with_jacobian) a.jacobian = Eigen::MatrixXd::Identity(n, n);
-  for (const ComponentChoice& choice : k.effects) {
-    a.effects.push_back(registry_.create<EffectFactories>(registry_category::kEffect, choice));
+  a.effects = instantiate_effects(k, registry_);
+  for (const auto& effect : a.effects) {
     Eigen::MatrixXd step;
-    a.material = a.effects.back()->adjusted_material(a.material, with_jacobian ? &step : nullptr);
+    a.material = effect->adjusted_material(a.material, with_jacobian ? &step : nullptr);
     if (with_jacobian) a.jacobian = step * a.jacobian;
   }
   return a;
@@ -50,16 +50,10 @@ EffectExperiment::Adjusted EffectExperiment::adjust(const MaterialParameters& k,
 
 void EffectExperiment::add_observable_changes(const Adjusted& a, Eigen::VectorXd* values, Eigen::MatrixXd* d_adjusted,
                                               Eigen::VectorXd* d_angle) const {
-  const Eigen::Index m = values->size();
-  for (const auto& effect : a.effects) {
-    if (!effect->changes_observables()) continue;
-    const ObservableChange change = effect->observable_change(run_, a.material);
-    // The path state of entry i depends on entries ≤ i only: the first m are those of a run
-    // that stopped early.
-    *values += change.added.head(m);
-    if (d_adjusted) *d_adjusted += change.d_flat.topRows(m);
-    if (d_angle) *d_angle += change.d_angle.head(m);
-  }
+  const ObservableChange change = observable_additions(a.effects, run_, a.material, values->size());
+  *values += change.added;
+  if (d_adjusted) *d_adjusted += change.d_flat;
+  if (d_angle) *d_angle += change.d_angle;
 }
 
 ExperimentRun EffectExperiment::simulate(const MaterialParameters& k) {
@@ -124,6 +118,28 @@ std::unique_ptr<Experiment> create_experiment(const Registry& registry, const Co
   return create_experiment(registry, choice.name, choice.options, input);
 }
 
+std::vector<std::unique_ptr<Effect>> instantiate_effects(const MaterialParameters& k, const Registry& registry) {
+  std::vector<std::unique_ptr<Effect>> effects;
+  for (const ComponentChoice& choice : k.effects)
+    effects.push_back(registry.create<EffectFactories>(registry_category::kEffect, choice));
+  return effects;
+}
+
+ObservableChange observable_additions(const std::vector<std::unique_ptr<Effect>>& effects, const RunConditions& run,
+                                      const MaterialParameters& adjusted, Eigen::Index m) {
+  ObservableChange sum = ObservableChange::zero(m, adjusted.flat_size());
+  for (const auto& effect : effects) {
+    if (!effect->changes_observables()) continue;
+    const ObservableChange change = effect->observable_change(run, adjusted);
+    // The path state of entry i depends on entries ≤ i only: the first m are those of a run
+    // that stopped early.
+    sum.added += change.added.head(m);
+    sum.d_flat += change.d_flat.topRows(m);
+    sum.d_angle += change.d_angle.head(m);
+  }
+  return sum;
+}
+
 Experiment& innermost(Experiment& experiment) {
   auto* wrapper = dynamic_cast<EffectExperiment*>(&experiment);
   return wrapper ? innermost(wrapper->inner()) : experiment;
@@ -131,8 +147,7 @@ Experiment& innermost(Experiment& experiment) {
 
 MaterialParameters law_adjusted(const MaterialParameters& k, const Registry& registry) {
   MaterialParameters adjusted = k;
-  for (const ComponentChoice& choice : k.effects)
-    adjusted = registry.create<EffectFactories>(registry_category::kEffect, choice)->adjusted_material(adjusted, nullptr);
+  for (const auto& effect : instantiate_effects(k, registry)) adjusted = effect->adjusted_material(adjusted, nullptr);
   return adjusted;
 }
 

@@ -71,6 +71,14 @@ std::unique_ptr<Experiment> create_experiment(const Registry& registry, const st
 std::unique_ptr<Experiment> create_experiment(const Registry& registry, const ComponentChoice& choice,
                                               const ExperimentInput& input);
 
+/// What the observable hooks of `effects` add to a run of m observables at the law-adjusted
+/// material k' (the sum of their ObservableChange), for code that simulates the elastic part
+/// itself (fitting/strip_curves.cpp) and for EffectExperiment.
+ObservableChange observable_additions(const std::vector<std::unique_ptr<Effect>>& effects, const RunConditions& run,
+                                      const MaterialParameters& adjusted, Eigen::Index m);
+/// The effects of k.effects, instantiated with their parameters.
+std::vector<std::unique_ptr<Effect>> instantiate_effects(const MaterialParameters& k, const Registry& registry);
+
 /// The experiment inside any effect wrappers (e.g. to reach a CantileverPredictor's search).
 Experiment& innermost(Experiment& experiment);
 

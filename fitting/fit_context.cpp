@@ -26,38 +26,80 @@ double mean_run_error(const FitObjective& objective, size_t n) {
   return mean(e);
 }
 
-RunData measured_points(const TensileTest& test, const TensileRun& run, const FitDataSelection& data) {
-  const double peak_force =
-      *std::max_element(run.force_N.begin(), run.force_N.begin() + static_cast<long>(run.peak_index) + 1);
-  const double floor = data.min_force_fraction * peak_force;
+namespace {
+
+// At most max_points of `rows`, evenly spread, first and last kept.
+std::vector<size_t> spread(const std::vector<size_t>& rows, size_t max_points) {
+  if (rows.size() <= max_points) return rows;
+  std::vector<size_t> chosen;
+  for (size_t j = 0; j < max_points; ++j) chosen.push_back(rows[(j * (rows.size() - 1)) / (max_points - 1)]);
+  return chosen;
+}
+
+// The rows [first, last] that pull the strip above the data selection's force floor (in file
+// order; with `increasing`, only rows beyond every earlier kept extension).
+std::vector<size_t> pulling_rows(const TensileRun& run, size_t first, size_t last, double floor, bool increasing) {
   std::vector<size_t> keep;
   double last_extension = -1e300;
-  for (size_t i = 0; i <= run.peak_index; ++i)
+  for (size_t i = first; i <= last && i < run.size(); ++i)
     if (run.force_N[i] > floor && run.force_N[i] > 0 && run.extension_mm[i] > 0 &&
-        run.extension_mm[i] > last_extension) {
+        (!increasing || run.extension_mm[i] > last_extension)) {
       keep.push_back(i);
       last_extension = run.extension_mm[i];
     }
-  const size_t max_points = static_cast<size_t>(data.max_points);
-  std::vector<size_t> chosen;
-  if (keep.size() <= max_points) {
-    chosen = keep;
-  } else {
-    for (size_t j = 0; j < max_points; ++j) chosen.push_back(keep[(j * (keep.size() - 1)) / (max_points - 1)]);
-  }
+  return keep;
+}
+
+RunData run_data(const TensileTest& test, const TensileRun& run, const std::vector<size_t>& rows, double floor) {
   RunData d;
   d.test = &test;
   d.run = &run;
-  d.force_N.resize(static_cast<Eigen::Index>(chosen.size()));
-  for (size_t j = 0; j < chosen.size(); ++j) {
-    d.extension_mm.push_back(run.extension_mm[chosen[j]]);
-    if (run.has_time()) d.time_s.push_back(run.time_s[chosen[j]]);
-    d.force_N[static_cast<Eigen::Index>(j)] = run.force_N[chosen[j]];
+  d.force_N.resize(static_cast<Eigen::Index>(rows.size()));
+  for (size_t j = 0; j < rows.size(); ++j) {
+    d.extension_mm.push_back(run.extension_mm[rows[j]]);
+    if (run.has_time()) d.time_s.push_back(run.time_s[rows[j]]);
+    d.force_N[static_cast<Eigen::Index>(j)] = run.force_N[rows[j]];
   }
   if (d.extension_mm.size() < 2)
     throw InputError({run.path, 0, "force_N"}, "fewer than 2 usable points in the loading branch (forces above " +
                                                    fmt::format("{:.3g}", floor) + " N)");
   return d;
+}
+
+double force_floor(const TensileRun& run, const FitDataSelection& data) {
+  return data.min_force_fraction *
+         *std::max_element(run.force_N.begin(), run.force_N.begin() + static_cast<long>(run.peak_index) + 1);
+}
+
+}  // namespace
+
+RunData measured_points(const TensileTest& test, const TensileRun& run, const FitDataSelection& data) {
+  const double floor = force_floor(run, data);
+  const auto rows = pulling_rows(run, 0, run.peak_index, floor, true);
+  return run_data(test, run, spread(rows, static_cast<size_t>(data.max_points)), floor);
+}
+
+RunData measured_path(const TensileTest& test, const TensileRun& run, const FitDataSelection& data) {
+  const double floor = force_floor(run, data);
+  const auto max_points = static_cast<size_t>(data.max_points);
+  std::vector<size_t> rows = spread(pulling_rows(run, 0, run.peak_index, floor, true), max_points);
+  const std::vector<size_t> unloading = spread(pulling_rows(run, run.peak_index + 1, run.size() - 1, floor, false),
+                                               max_points);
+  rows.insert(rows.end(), unloading.begin(), unloading.end());
+  return run_data(test, run, rows, floor);
+}
+
+RunConditions FitContext::run_conditions(const RunData& d, double angle_deg) {
+  RunConditions run;
+  run.observable = "force_N";
+  run.schedule_quantity = "extension_mm";
+  run.schedule = d.extension_mm;
+  run.angle_deg = angle_deg;
+  run.width_mm = d.test->width_mm;
+  run.gauge_length_mm = d.test->gauge_length_mm;
+  run.rate_mm_min = d.test->rate_mm_min.value_or(0.0);
+  run.time_s = d.time_s;
+  return run;
 }
 
 const std::vector<MembraneTerm>& membrane_terms() {

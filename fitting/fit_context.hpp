@@ -38,6 +38,10 @@ struct RunData {
   std::vector<double> time_s;  ///< of the chosen rows; empty when the run has no clock
 };
 RunData measured_points(const TensileTest& test, const TensileRun& run, const FitDataSelection& data);
+/// As measured_points, but the whole path in file order: the loading branch's points, then
+/// the unloading branch's (each spread over at most data.max_points rows above the floor),
+/// for effects whose predictions depend on the path (docs/effects/strip_path.md).
+RunData measured_path(const TensileTest& test, const TensileRun& run, const FitDataSelection& data);
 
 /// A term of ψ that a tensile-curve stage fits (model.md §2), with what the protocol needs of
 /// it. Its part of ψ is stress_factor/2 · a · η(E²): a/2 η(E²) for a stretch, G12 η4(E12²) for
@@ -111,6 +115,9 @@ class FitContext {
   TensileSetup setup_for(const TensileTest& test, int level) const;
   int levels() const { return config_.resolution.levels; }
   static std::string run_label(const RunData& d) { return d.test->label + " " + d.run->name(); }
+  /// What the effects' observable hooks see of a run's strip at `angle_deg` (its schedule,
+  /// geometry and clock).
+  static RunConditions run_conditions(const RunData& d, double angle_deg);
   static std::string resolution_text(int cells_across, int cells_along);
 
   // ---- parts from the registry ----

@@ -36,7 +36,7 @@ void check_effects_data(const Dataset& dataset, const FitConfig& config, const R
 std::vector<ComponentChoice> estimate_effects(FitContext& context, const std::vector<FitCurve>& validation) {
   std::vector<ComponentChoice> fitted_effects;
   for (size_t i = 0; i < context.effects.size(); ++i) {
-    ComponentChoice fitted = context.config().effects[i];
+    ComponentChoice fitted = context.params.effects.at(i);  // as the effect-fit stages left it
     if (is_angle_offset(*context.effects[i]) && !validation.empty()) {
       std::vector<Eigen::VectorXd> offsets;
       for (const FitCurve& c : validation) offsets.push_back(Eigen::VectorXd::Constant(1, c.delta_theta_deg));
@@ -44,7 +44,9 @@ std::vector<ComponentChoice> estimate_effects(FitContext& context, const std::ve
       context.note("effect " + fitted.name + ": estimated from the " + std::to_string(offsets.size()) +
                    " validation offsets");
     } else {
-      context.note("effect " + fitted.name + ": parameters as configured (the fit estimates none of them)");
+      context.note("effect " + fitted.name + ": parameters " +
+                   (fitted == context.config().effects[i] ? "as configured (no stage fitted them)"
+                                                          : "as the effect-fit stage left them"));
     }
     fitted_effects.push_back(fitted);
   }

@@ -48,11 +48,14 @@ std::vector<std::unique_ptr<FitStage>> make_stages(const FitConfig& config, cons
 /// Up-front checks of the protocol: unique curve labels, a warp-stretch stage (the initial
 /// guess starts from a11), and each stage's own check against the stages before it.
 void check_stages(const std::vector<std::unique_ptr<FitStage>>& stages, const Dataset& dataset,
-                  const FitConfig& config, const ConfigKeyLocator& locate) {
+                  const FitConfig& config, const Registry& registry, const ConfigKeyLocator& locate) {
   ProtocolCheck check;
   check.dataset = &dataset;
   check.levels = config.resolution.levels;
   check.locate = locate;
+  if (const RegistryCategory* effects = registry.find_category(registry_category::kEffect))
+    for (const RegistryEntry& e : effects->entries()) check.registered_effects.push_back(e.name);
+  for (const ComponentChoice& e : config.effects) check.configured_effects.push_back(e.name);
   bool has_eta1 = false;
   for (size_t i = 0; i < stages.size(); ++i) {
     check.key = "protocol[" + std::to_string(i) + "]";
@@ -132,6 +135,7 @@ void merge(FitReport& report, FitReport&& part, const std::string& title, double
   append(report.fit, part.fit);
   append(report.bend, part.bend);
   append(report.validation, part.validation);
+  append(report.effects, part.effects);
   append(report.notes, part.notes);
   append(report.timing_s, part.timing_s);
   if (!part.finest_resolution.empty()) report.finest_resolution = part.finest_resolution;
@@ -150,7 +154,7 @@ InputLocation default_config_location(const std::string& key) { return {"config"
 void check_fit_protocol(const Dataset& dataset, const Options& config, const Registry& registry,
                         const ConfigKeyLocator& locate) {
   const FitConfig typed = read_fit_config(config);
-  check_stages(make_stages(typed, registry), dataset, typed, locate);
+  check_stages(make_stages(typed, registry), dataset, typed, registry, locate);
 }
 
 FitReport run_fit(const Dataset& dataset, const Options& options, const Registry& registry,
@@ -158,7 +162,7 @@ FitReport run_fit(const Dataset& dataset, const Options& options, const Registry
   const auto start = Clock::now();
   const FitConfig config = read_fit_config(options);
   std::vector<std::unique_ptr<FitStage>> stages = make_stages(config, registry);
-  check_stages(stages, dataset, config, default_config_location);
+  check_stages(stages, dataset, config, registry, default_config_location);
   FitContext context(dataset, config, registry, progress);
   for (const auto& stage : stages)
     if (const CurveStage* curve = stage->curve_stage()) context.declared_curves.push_back(*curve);
@@ -173,6 +177,7 @@ FitReport run_fit(const Dataset& dataset, const Options& options, const Registry
     check_effects_data(dataset, config, registry);
     select_data(context);
     start_from_slopes(context);
+    context.params.effects = config.effects;  // at their configured values: neutral by default
     for (const auto& stage : stages) {
       part = FitReport{};
       context.set_output(&part);

@@ -100,6 +100,24 @@ struct FitInitialGuess {
   double avg_rel_difference_full = 0;  ///< uniform-strain vs full shell solve at the guess
 };
 
+/// One fitted effect parameter with its unit and bounds (report rows).
+struct FitEffectParameter {
+  std::string name;  ///< "hysteresis.warp_friction_N_m"
+  std::string unit;
+  double value = 0, lower = 0, upper = 0;
+};
+
+/// What an effect-fit stage found (docs/effects.md): the effect's parameters and the error on
+/// its runs without the effect (its neutral values) and with it.
+struct FitEffect {
+  std::string effect;      ///< registered name
+  std::string resolution;
+  int runs = 0;            ///< runs fitted
+  int points = 0;          ///< observables fitted
+  double error_without = 0, error_with = 0;  ///< mean of the runs' average relative errors
+  std::vector<FitEffectParameter> parameters;
+};
+
 struct FitReport {
   std::string dataset;  ///< dataset name
   std::string folder;
@@ -111,6 +129,7 @@ struct FitReport {
   std::vector<FitCurve> fit;
   std::vector<FitBend> bend;
   std::vector<FitCurve> validation;
+  std::vector<FitEffect> effects;  ///< one per effect-fit stage that ran
   std::vector<std::pair<std::string, double>> timing_s;  ///< per stage, then "total"
   std::vector<std::string> notes;  ///< choices made on the way (repeats, cutoffs, degrees)
 };

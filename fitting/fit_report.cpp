@@ -123,11 +123,38 @@ json report_json(const FitReport& r, const Options& config) {
                          {"overhang_mm", b.overhang_mm}});
   j["validation"] = json::array();
   for (const auto& c : r.validation) j["validation"].push_back(curve_json(c));
+  j["effects"] = json::array();
+  for (const FitEffect& e : r.effects) {
+    json parameters = json::array();
+    for (const FitEffectParameter& p : e.parameters)
+      parameters.push_back({{"name", p.name}, {"unit", p.unit}, {"value", p.value}, {"lower", p.lower},
+                            {"upper", p.upper}});
+    j["effects"].push_back({{"effect", e.effect}, {"resolution", e.resolution}, {"runs", e.runs},
+                            {"points", e.points}, {"error_without", e.error_without},
+                            {"error_with", e.error_with}, {"parameters", parameters}});
+  }
   json timing = json::object();
   for (const auto& [k, v] : r.timing_s) timing[k] = v;
   j["timing_s"] = timing;
   j["notes"] = r.notes;
   return j;
+}
+
+// The effect-fit stages' results: per effect the error on its runs without and with it, and
+// its fitted parameters.
+std::string effects_markdown(const std::vector<FitEffect>& effects) {
+  std::ostringstream md;
+  md << "\n## Effects (docs/effects.md)\n\nPer effect-fit stage: the mean average relative error of its "
+        "runs with the effect at its neutral values (the paper's model) and fitted.\n\n| effect | resolution | "
+        "runs | points | error without | error with |\n|---|---|---|---|---|---|\n";
+  for (const FitEffect& e : effects)
+    md << fmt::format("| {} | {} | {} | {} | {:.2f} % | {:.2f} % |\n", e.effect, e.resolution, e.runs, e.points,
+                      100 * e.error_without, 100 * e.error_with);
+  md << "\n| parameter | value | unit | bounds |\n|---|---|---|---|\n";
+  for (const FitEffect& e : effects)
+    for (const FitEffectParameter& p : e.parameters)
+      md << fmt::format("| {} | {:.5g} | {} | [{:g}, {:g}] |\n", p.name, p.value, p.unit, p.lower, p.upper);
+  return md.str();
 }
 
 std::string report_markdown(const FitReport& r) {
@@ -152,6 +179,7 @@ std::string report_markdown(const FitReport& r) {
   for (const auto& c : r.validation)
     md << fmt::format("| {} | {:g}° | {} | {:+.2f}° | {:.2f} % | {:.2f} % |\n", c.label, c.angle_deg, c.run,
                       c.delta_theta_deg, 100 * c.avg_rel_error, 100 * c.avg_rel_error_without_offset);
+  if (!r.effects.empty()) md << effects_markdown(r.effects);
   md << "\n## Stages\n\n| stage | resolution | degree | error | optimiser | status | iterations | "
         "solves | time |\n|---|---|---|---|---|---|---|---|---|\n";
   for (const auto& s : r.stages)

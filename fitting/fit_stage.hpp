@@ -27,6 +27,8 @@ struct ProtocolCheck {
   std::string key;                    ///< this stage's key path, e.g. "protocol[3]"
   std::vector<std::string> curve_labels;  ///< labels of the tensile-curve stages before it
   int levels = 1;                     ///< the config's resolution levels
+  std::vector<std::string> registered_effects;  ///< the registry's effect names
+  std::vector<std::string> configured_effects;  ///< the config's `effects`, in order
   ConfigKeyLocator locate;
 };
 

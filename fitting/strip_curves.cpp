@@ -4,6 +4,8 @@
 
 #include <tbb/parallel_for.h>
 
+#include "effects/effect_experiment.hpp"
+
 namespace twill {
 
 TensileCurve StripCurves::run_anchored(TensileExperiment& experiment, const TensileTest& test,
@@ -52,11 +54,15 @@ std::vector<std::optional<StripCurves::Simulated>> StripCurves::simulate(const F
     std::sort(g.extensions.begin(), g.extensions.end());
     g.extensions.erase(std::unique(g.extensions.begin(), g.extensions.end()), g.extensions.end());
   }
+  // The model's effects (effects/effect_experiment.hpp): the law hooks before the strips
+  // simulate, the observable hooks added to each request's forces below.
+  const MaterialParameters adjusted = law_adjusted(context.params, context.registry());
+  const auto effects = instantiate_effects(context.params, context.registry());
   tbb::parallel_for(size_t{0}, groups.size(), [&](size_t i) {
     Group& g = groups[i];
     TensileSetup setup = context.setup_for(*g.test, level);
     setup.angle_deg = g.angle_deg;
-    TensileExperiment experiment(setup, context.discretization(), context.params, context.solver());
+    TensileExperiment experiment(setup, context.discretization(), adjusted, context.solver());
     experiment.set_angle_sensitivity(angle_derivative);
     experiment.set_keep_states(angle_derivative);
     g.curve = run_anchored(experiment, *g.test, g.extensions);
@@ -84,6 +90,12 @@ std::vector<std::optional<StripCurves::Simulated>> StripCurves::simulate(const F
       run.force_N[static_cast<Eigen::Index>(i)] = points[j].force_N;
       run.dforce_dangle[static_cast<Eigen::Index>(i)] = points[j].dforce_dangle;
       if (i + 1 == wanted.size()) out[r] = run;
+    }
+    if (out[r] && !effects.empty()) {
+      const ObservableChange change = observable_additions(
+          effects, FitContext::run_conditions(*requests[r].run, requests[r].angle_deg), adjusted, run.force_N.size());
+      out[r]->force_N += change.added;
+      out[r]->dforce_dangle += change.d_angle;
     }
   }
   return out;

@@ -11,6 +11,7 @@ void register_fit_stages(Registry& registry) {
   register_bend_stage(stages);
   register_final_curves_stage(stages);
   register_validation_stage(stages);
+  register_effect_fit_stage(stages);
 }
 
 }  // namespace twill

@@ -1,0 +1,173 @@
+// Stage `effect-fit` (issue #15; docs/effects.md): the parameters of one configured effect
+// fitted to the fit runs at one resolution level — jointly with every fitted tensile-curve
+// stage's parameters (`with_curves`, default: the curves fitted without the effect absorbed
+// part of it), or with the law held — and the error of those runs without the effect (its
+// neutral values, the schema defaults: the paper's model, at the parameters the stages before
+// left) and with it. A protocol lists one such stage per effect it can fit; the stage does
+// nothing (its timing row reads 0 s) when the config's `effects` does not name its effect, so
+// the paper's protocol carries them inactive.
+//
+// Data: every fit tensile run, its whole path in file order (`rows: path`, loading then
+// unloading, FitContext's measured_path) or its loading branch (`rows: loading`), each run with
+// its clock (rate_mm_min, time_s) for rate effects.
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <deque>
+
+#include "core/option_binding.hpp"
+#include "fitting/fit_context.hpp"
+#include "fitting/fit_stage.hpp"
+#include "fitting/stages/stage_kinds.hpp"
+
+namespace twill {
+namespace {
+
+/// The level of the finest stage so far (a negative `level`).
+constexpr int kFinestSoFar = -1;
+/// An effect parameter whose neutral value is 0 has no scale of its own: x = 1 stands for this
+/// fraction of its range (hysteresis' frictions: 100 N/m of [0, 1e5], a few % of a strip's
+/// force per width).
+constexpr double kScaleOfRange = 1e-3;
+
+struct EffectFitOptions {
+  std::string effect = "hysteresis";
+  std::string rows = "path";
+  int level = kFinestSoFar;
+  bool with_curves = true;
+  bool validate(std::string* error) const;
+};
+
+OptionBindings<EffectFitOptions> effect_fit_bindings() {
+  using S = EffectFitOptions;
+  return {text_option<S>("effect", &S::effect, "the registered effect whose parameters it fits (twill list effect)"),
+          choice_option<S>("rows", &S::rows, {"path", "loading"},
+                           "the runs' rows: the whole path (loading, then unloading) or the loading branch"),
+          integer_option<S>("level", &S::level, "resolution level (-1: the finest any stage before it reached)",
+                            in_range(kFinestSoFar, 4)),
+          bool_option<S>("with_curves", &S::with_curves,
+                         "free every fitted tensile-curve stage's stiffness and curve with the effect (false: the law held)")};
+}
+
+bool EffectFitOptions::validate(std::string* error) const { return check_options(effect_fit_bindings(), *this, error); }
+
+// The effect's parameters as the fit's parameter map takes them (bounds and scale).
+std::vector<ParameterRange> ranges_of(const std::vector<EffectParameter>& parameters) {
+  std::vector<ParameterRange> ranges;
+  for (const EffectParameter& p : parameters)
+    ranges.push_back({p.name, p.lower, p.upper, p.value != 0 ? 0.0 : kScaleOfRange * (p.upper - p.lower)});
+  return ranges;
+}
+
+class EffectFit final : public FitStage {
+ public:
+  explicit EffectFit(EffectFitOptions options) : options_(std::move(options)) {}
+  std::string title() const override { return "effect " + options_.effect; }
+
+  void check(const ProtocolCheck& check) const override {
+    const auto& known = check.registered_effects;
+    if (std::find(known.begin(), known.end(), options_.effect) != known.end()) return;
+    std::string names;
+    for (const std::string& n : known) names += (names.empty() ? "" : ", ") + n;
+    throw InputError(check.locate(check.key + ".effect"),
+                     "unknown effect '" + excerpt(options_.effect) + "' (known: " + names + ")");
+  }
+
+  void run(FitContext& context, FitReport& out) override {
+    const auto configured = std::find_if(context.params.effects.begin(), context.params.effects.end(),
+                                         [&](const ComponentChoice& c) { return c.name == options_.effect; });
+    if (configured == context.params.effects.end()) return;  // inactive: the config does not name the effect
+    const auto t = Clock::now();
+    const int level = options_.level == kFinestSoFar ? context.finest_level : std::min(options_.level, context.levels() - 1);
+    select_runs(context);
+    std::vector<std::shared_ptr<Predictor>> predictors;
+    for (const RunData& d : runs_) predictors.push_back(context.tensile_experiment(d, level, context.params));
+    const std::vector<EffectParameter> parameters = effect_parameters({*configured}, context.registry());
+    std::vector<std::string> free;
+    for (const EffectParameter& p : parameters) free.push_back(p.name);
+    const std::vector<std::string> effect_free = free;
+    if (options_.with_curves)
+      for (const CurveStage& c : context.fitted_curves)
+        for (const std::string& name : c.free_parameters()) free.push_back(name);
+    ParameterMap::Options map_options;
+    map_options.ranges = ranges_of(parameters);
+
+    FitEffect result;
+    result.effect = options_.effect;
+    result.resolution = resolution_at(context, level);
+    result.runs = static_cast<int>(runs_.size());
+    result.error_without = error_at_neutral(context, *configured, effect_free, map_options, predictors);
+
+    ParameterMap map(context.params, free, map_options);
+    FitObjective objective(map, predictors);
+    for (const auto& p : predictors) result.points += static_cast<int>(p->measured().size());
+    objective.set_progress([&](const IterationRecord& it, const Eigen::VectorXd&) {
+      context.say(1, fmt::format("  effect {} it {:3d}: eps {:.4e} |g| {:.2e}", options_.effect, it.iteration,
+                                 it.value, it.gradient_norm));
+    });
+    std::unique_ptr<Optimizer> optimizer = context.make_optimizer();
+    const OptimizerResult r = optimizer->minimize(objective, map.initial_x());
+    if (!std::isfinite(objective.evaluate(r.x, nullptr)))
+      throw std::runtime_error("effect-fit " + options_.effect + ": the optimiser's final point could not be evaluated: " +
+                               objective.last_failure());
+    context.params = map.parameters(r.x);
+    result.error_with = mean_run_error(objective, runs_.size());
+    for (const EffectParameter& p : effect_parameters({*find_effect(context)}, context.registry()))
+      result.parameters.push_back({p.name, p.unit, p.value, p.lower, p.upper});
+    context.record_stage("effect " + options_.effect, result.resolution, 0, result.error_with, *optimizer, r, objective,
+                         t);
+    context.note(fmt::format("effect {}: error {:.2f} % without it, {:.2f} % with it ({} runs, {} points, {})",
+                             options_.effect, 100 * result.error_without, 100 * result.error_with, result.runs,
+                             result.points, result.resolution));
+    out.effects.push_back(std::move(result));
+  }
+
+ private:
+  EffectFitOptions options_;
+  std::deque<RunData> runs_;  ///< the stage's runs (stable addresses for the predictors)
+
+  void select_runs(const FitContext& context) {
+    runs_.clear();
+    for (const RunData& d : context.fit_runs)
+      runs_.push_back(options_.rows == "path" ? measured_path(*d.test, *d.run, context.config().data)
+                                              : measured_points(*d.test, *d.run, context.config().data));
+  }
+
+  const ComponentChoice* find_effect(const FitContext& context) const {
+    for (const ComponentChoice& c : context.params.effects)
+      if (c.name == options_.effect) return &c;
+    return nullptr;
+  }
+
+  std::string resolution_at(const FitContext& context, int level) const {
+    const TensileSetup s = context.setup_for(*runs_.front().test, level);
+    return FitContext::resolution_text(s.cells_across, s.cells_along);
+  }
+
+  // The runs' mean error with the effect at its neutral values (the schema defaults).
+  double error_at_neutral(const FitContext& context, const ComponentChoice& configured,
+                          const std::vector<std::string>& free, const ParameterMap::Options& map_options,
+                          const std::vector<std::shared_ptr<Predictor>>& predictors) const {
+    MaterialParameters neutral = context.params;
+    for (ComponentChoice& c : neutral.effects)
+      if (c.name == configured.name)
+        c.options = default_options(context.registry().find_category(registry_category::kEffect)->at(c.name).options,
+                                    nullptr);
+    ParameterMap map(neutral, free, map_options);
+    FitObjective objective(map, predictors);
+    objective.evaluate(map.initial_x(), nullptr);
+    return mean_run_error(objective, predictors.size());
+  }
+};
+
+}  // namespace
+
+void register_effect_fit_stage(FitStageFactories& stages) {
+  stages.add_bound<EffectFit>("effect-fit",
+                              "one configured effect's parameters fitted to the fit runs (inactive when the config's "
+                              "effects do not name it), with the error without and with it",
+                              effect_fit_bindings());
+}
+
+}  // namespace twill
