@@ -16,7 +16,9 @@
 // Registered experiments (experiments/register_experiments.cpp; `twill list experiment`):
 //   tensile     the ASTM D5035-like strip (tensile_strip.hpp): clamp force [N] per extension;
 //   bend        the ASTM D1388 cantilever (cantilever.hpp): chord angle [deg] per overhang;
-//   validation  a tensile strip at an off-axis angle, reported with dF/dθ (paper §7).
+//   validation  a tensile strip at an off-axis angle, reported with dF/dθ (paper §7);
+//   tensile-lateral  the strip's lateral strain at mid-gauge per extension (what a video
+//               extensometer or DIC measures; identifies a12, effects/poisson).
 //
 // Factory: (resolved options, input) -> the experiment. Options are the experiment's own
 // choices (e.g. the tensile strip's `planar`), validated against its schema by the registry.

@@ -89,9 +89,12 @@ bool TensilePredictor::predict(const MaterialParameters& k, const std::vector<in
   const auto m = static_cast<Eigen::Index>(extensions_mm_.size());
   values->resize(m);
   if (jacobian) jacobian->resize(m, static_cast<Eigen::Index>(flat.size()));
+  const bool force = observable_ == StripObservable::Force;
   for (size_t i = 0; i < curve.points.size(); ++i) {
-    (*values)[static_cast<Eigen::Index>(i)] = curve.points[i].force_N;
-    if (jacobian) jacobian->row(static_cast<Eigen::Index>(i)) = curve.points[i].dforce_dk.transpose();
+    const TensilePoint& p = curve.points[i];
+    (*values)[static_cast<Eigen::Index>(i)] = force ? p.force_N : p.lateral_strain;
+    if (jacobian)
+      jacobian->row(static_cast<Eigen::Index>(i)) = (force ? p.dforce_dk : p.dlateral_strain_dk).transpose();
   }
   if (jacobian && warm_start_) {
     anchor_k_ = k_flat;
@@ -121,14 +124,16 @@ ExperimentRun TensilePredictor::simulate(const MaterialParameters& k) {
   run.newton_iterations = curve.newton_iterations;
   run.wall_time_s = curve.wall_time_s;
   run.values.resize(static_cast<Eigen::Index>(curve.points.size()));
-  std::vector<double> lateral, dforce_dangle;
+  const bool force = observable_ == StripObservable::Force;
+  std::vector<double> other, dforce_dangle;
   for (size_t i = 0; i < curve.points.size(); ++i) {
-    run.schedule.push_back(curve.points[i].extension_mm);
-    run.values[static_cast<Eigen::Index>(i)] = curve.points[i].force_N;
-    lateral.push_back(curve.points[i].lateral_strain);
-    dforce_dangle.push_back(curve.points[i].dforce_dangle);
+    const TensilePoint& p = curve.points[i];
+    run.schedule.push_back(p.extension_mm);
+    run.values[static_cast<Eigen::Index>(i)] = force ? p.force_N : p.lateral_strain;
+    other.push_back(force ? p.lateral_strain : p.force_N);
+    dforce_dangle.push_back(p.dforce_dangle);
   }
-  run.extras.emplace_back("lateral_strain", std::move(lateral));
+  run.extras.emplace_back(force ? "lateral_strain" : "force_N", std::move(other));
   if (report_angle_derivative_) run.extras.emplace_back(kAngleDerivativeColumn, std::move(dforce_dangle));
   return run;
 }

@@ -24,6 +24,10 @@
 
 namespace twill {
 
+/// What a tensile strip reports as its observable: the clamp force (the paper's), or the
+/// lateral strain at mid-gauge (a video extensometer's; tensile_strip.hpp).
+enum class StripObservable { Force, LateralStrain };
+
 class TensilePredictor : public Experiment {
  public:
   /// extensions_mm and forces_N: the measured points (same size, forces ≠ 0), or no forces
@@ -33,12 +37,21 @@ class TensilePredictor : public Experiment {
                    std::vector<double> extensions_mm, const Eigen::VectorXd& forces_N,
                    const EquilibriumOptions& solver = {});
 
-  std::string observable() const override { return "force_N"; }
+  std::string observable() const override {
+    return observable_ == StripObservable::Force ? "force_N" : "lateral_strain";
+  }
   std::string schedule_quantity() const override { return "extension_mm"; }
   const std::vector<double>& schedule() const override { return extensions_mm_; }
-  /// Extras: lateral_strain per point, and dforce_dangle_N_per_deg with report_angle_derivative.
+  /// Extras: the other observable per point (lateral_strain, or force_N), and
+  /// dforce_dangle_N_per_deg with report_angle_derivative.
   ExperimentRun simulate(const MaterialParameters& k) override;
-  std::vector<std::string> setup_sensitivities() const override { return {setup_quantity::kAngle}; }
+  /// dF/dθ for the force; none for the lateral strain.
+  std::vector<std::string> setup_sensitivities() const override {
+    return observable_ == StripObservable::Force ? std::vector<std::string>{setup_quantity::kAngle}
+                                                 : std::vector<std::string>{};
+  }
+  /// The observable predict() and simulate() report (the measured values are of this one).
+  void set_observable(StripObservable observable) { observable_ = observable; }
   bool predict_setup_derivatives(const MaterialParameters& k, const std::vector<std::string>& quantities,
                                  Eigen::VectorXd* values, Eigen::MatrixXd* jacobian, std::string* message) override;
   bool last_surface(Eigen::MatrixXd* V, Eigen::MatrixXi* F) const override;
@@ -67,6 +80,7 @@ class TensilePredictor : public Experiment {
   Eigen::VectorXd measured_;
   bool warm_start_ = true;
   bool report_angle_derivative_ = false;
+  StripObservable observable_ = StripObservable::Force;
   bool angle_sensitivity_on_ = false;  ///< whether experiment_ holds its turned meshes
   /// Turns the engine's angle sensitivity on or off, rebuilding nothing when it already is.
   void use_angle_sensitivity(bool on);

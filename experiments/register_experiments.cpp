@@ -136,6 +136,14 @@ void register_experiments(Registry& registry) {
                  strip->set_report_angle_derivative(true);
                  return strip;
                });
+  category.add("tensile-lateral",
+               "the tensile strip's lateral strain at mid-gauge [1] per extension [mm] (video extensometer, DIC)",
+               option_schema(tensile_bindings()),
+               [](const Options& o, const ExperimentInput& input) -> std::unique_ptr<Experiment> {
+                 auto strip = make_tensile(options_from(tensile_bindings(), o, "tensile-lateral"), input);
+                 strip->set_observable(StripObservable::LateralStrain);
+                 return strip;
+               });
   category.add("bend", "ASTM D1388 cantilever under its own weight: chord angle [deg] per overhang [mm]",
                option_schema(bend_bindings()), [](const Options& o, const ExperimentInput& input) {
                  return make_bend(options_from(bend_bindings(), o, "bend"), input);

@@ -58,6 +58,7 @@ RunData run_data(const TensileTest& test, const TensileRun& run, const std::vect
   for (size_t j = 0; j < rows.size(); ++j) {
     d.extension_mm.push_back(run.extension_mm[rows[j]]);
     if (run.has_time()) d.time_s.push_back(run.time_s[rows[j]]);
+    if (run.has_lateral_strain()) d.lateral_strain.push_back(run.lateral_strain[rows[j]]);
     d.force_N[static_cast<Eigen::Index>(j)] = run.force_N[rows[j]];
   }
   if (d.extension_mm.size() < 2)
@@ -202,8 +203,8 @@ ExperimentInput FitContext::experiment_input(std::string label, double angle_deg
   return input;
 }
 
-std::shared_ptr<Experiment> FitContext::tensile_experiment(const RunData& d, int level,
-                                                           const MaterialParameters& p) const {
+std::shared_ptr<Experiment> FitContext::tensile_experiment(const RunData& d, int level, const MaterialParameters& p,
+                                                           const std::string& name) const {
   const TensileSetup s = setup_for(*d.test, level);
   ExperimentInput input = experiment_input(run_label(d), s.angle_deg, s.width_mm, s.cells_across, s.cells_along, p);
   input.length_mm = s.gauge_length_mm;
@@ -211,7 +212,8 @@ std::shared_ptr<Experiment> FitContext::tensile_experiment(const RunData& d, int
   input.measured = d.force_N;
   input.rate_mm_min = d.test->rate_mm_min.value_or(0.0);
   input.time_s = d.time_s;
-  return create_experiment(registry_, config_.tensile_experiment, input);
+  return create_experiment(registry_, name.empty() ? config_.tensile_experiment.name : name,
+                           config_.tensile_experiment.options, input);
 }
 
 std::shared_ptr<Predictor> FitContext::uniform_strain_predictor(const RunData& d) const {

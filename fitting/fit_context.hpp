@@ -36,6 +36,7 @@ struct RunData {
   std::vector<double> extension_mm;
   Eigen::VectorXd force_N;
   std::vector<double> time_s;  ///< of the chosen rows; empty when the run has no clock
+  std::vector<double> lateral_strain;  ///< of the chosen rows; empty when the run has none
 };
 RunData measured_points(const TensileTest& test, const TensileRun& run, const FitDataSelection& data);
 /// As measured_points, but the whole path in file order: the loading branch's points, then
@@ -127,8 +128,10 @@ class FitContext {
   /// values are the caller's).
   ExperimentInput experiment_input(std::string label, double angle_deg, double width_mm, int cells_across,
                                    int cells_along, const MaterialParameters& p) const;
-  /// A fit run's experiment at `level` from `p` (config experiments.tensile).
-  std::shared_ptr<Experiment> tensile_experiment(const RunData& d, int level, const MaterialParameters& p) const;
+  /// A fit run's experiment at `level` from `p` (config experiments.tensile; `name`: another
+  /// registered experiment with the same options, e.g. tensile-lateral) predicting d.force_N.
+  std::shared_ptr<Experiment> tensile_experiment(const RunData& d, int level, const MaterialParameters& p,
+                                                 const std::string& name = "") const;
   /// A fit run's uniform-strain predictor (paper §5.3; the strip's cells do not matter to it).
   std::shared_ptr<Predictor> uniform_strain_predictor(const RunData& d) const;
   /// The config's optimiser (or `choice`) with the stages' limits (`refine`: a ladder refit's).

@@ -24,6 +24,8 @@
 namespace twill {
 namespace {
 
+/// The registered experiment that reports a strip's lateral strain (experiments/).
+constexpr const char* kLateralExperiment = "tensile-lateral";
 /// The level of the finest stage so far (a negative `level`).
 constexpr int kFinestSoFar = -1;
 /// An effect parameter whose neutral value is 0 has no scale of its own: x = 1 stands for this
@@ -34,6 +36,7 @@ constexpr double kScaleOfRange = 1e-3;
 struct EffectFitOptions {
   std::string effect = "hysteresis";
   std::string rows = "path";
+  std::string observable = "force_N";
   int level = kFinestSoFar;
   bool with_curves = true;
   bool validate(std::string* error) const;
@@ -44,6 +47,9 @@ OptionBindings<EffectFitOptions> effect_fit_bindings() {
   return {text_option<S>("effect", &S::effect, "the registered effect whose parameters it fits (twill list effect)"),
           choice_option<S>("rows", &S::rows, {"path", "loading"},
                            "the runs' rows: the whole path (loading, then unloading) or the loading branch"),
+          choice_option<S>("observable", &S::observable, {"force_N", "lateral_strain", "both"},
+                           "what it fits: the clamp forces, the lateral strains (of runs with a lateral_strain "
+                           "column, rows above data.min_force_fraction of the run's largest |lateral strain|), or both"),
           integer_option<S>("level", &S::level, "resolution level (-1: the finest any stage before it reached)",
                             in_range(kFinestSoFar, 4)),
           bool_option<S>("with_curves", &S::with_curves,
@@ -82,7 +88,10 @@ class EffectFit final : public FitStage {
     const int level = options_.level == kFinestSoFar ? context.finest_level : std::min(options_.level, context.levels() - 1);
     select_runs(context);
     std::vector<std::shared_ptr<Predictor>> predictors;
-    for (const RunData& d : runs_) predictors.push_back(context.tensile_experiment(d, level, context.params));
+    for (const RunData& d : runs_) predictors.push_back(experiment(context, d, level));
+    for (const RunData& d : lateral_runs_) predictors.push_back(lateral_experiment(context, d, level));
+    if (predictors.empty())
+      throw std::runtime_error("effect-fit " + options_.effect + ": no fit run has " + options_.observable + " data");
     const std::vector<EffectParameter> parameters = effect_parameters({*configured}, context.registry());
     std::vector<std::string> free;
     for (const EffectParameter& p : parameters) free.push_back(p.name);
@@ -96,7 +105,7 @@ class EffectFit final : public FitStage {
     FitEffect result;
     result.effect = options_.effect;
     result.resolution = resolution_at(context, level);
-    result.runs = static_cast<int>(runs_.size());
+    result.runs = static_cast<int>(runs_.size() + lateral_runs_.size());
     result.error_without = error_at_neutral(context, *configured, effect_free, map_options, predictors);
 
     ParameterMap map(context.params, free, map_options);
@@ -112,7 +121,7 @@ class EffectFit final : public FitStage {
       throw std::runtime_error("effect-fit " + options_.effect + ": the optimiser's final point could not be evaluated: " +
                                objective.last_failure());
     context.params = map.parameters(r.x);
-    result.error_with = mean_run_error(objective, runs_.size());
+    result.error_with = mean_run_error(objective, predictors.size());
     for (const EffectParameter& p : effect_parameters({*find_effect(context)}, context.registry()))
       result.parameters.push_back({p.name, p.unit, p.value, p.lower, p.upper});
     context.record_stage("effect " + options_.effect, result.resolution, 0, result.error_with, *optimizer, r, objective,
@@ -125,13 +134,60 @@ class EffectFit final : public FitStage {
 
  private:
   EffectFitOptions options_;
-  std::deque<RunData> runs_;  ///< the stage's runs (stable addresses for the predictors)
+  std::deque<RunData> runs_;          ///< runs whose forces it fits (stable addresses)
+  std::deque<RunData> lateral_runs_;  ///< runs whose lateral strains it fits
 
+  bool forces() const { return options_.observable != "lateral_strain"; }
+  bool laterals() const { return options_.observable != "force_N"; }
+
+  // The runs whose forces it fits (runs_) and those whose lateral strains it fits.
   void select_runs(const FitContext& context) {
     runs_.clear();
-    for (const RunData& d : context.fit_runs)
-      runs_.push_back(options_.rows == "path" ? measured_path(*d.test, *d.run, context.config().data)
-                                              : measured_points(*d.test, *d.run, context.config().data));
+    lateral_runs_.clear();
+    const FitDataSelection& data = context.config().data;
+    for (const RunData& d : context.fit_runs) {
+      RunData rows = options_.rows == "path" ? measured_path(*d.test, *d.run, data)
+                                             : measured_points(*d.test, *d.run, data);
+      if (forces()) runs_.push_back(rows);
+      if (laterals() && d.run->has_lateral_strain()) {
+        keep_lateral_rows(data.min_force_fraction, &rows);
+        lateral_runs_.push_back(std::move(rows));
+      }
+    }
+  }
+
+  // The rows whose |lateral strain| is at least `fraction` of the run's largest: relative
+  // residuals of the first, near-zero lateral strains would be noise.
+  static void keep_lateral_rows(double fraction, RunData* d) {
+    double largest = 0;
+    for (double v : d->lateral_strain) largest = std::max(largest, std::abs(v));
+    RunData kept = *d;
+    kept.extension_mm.clear();
+    kept.time_s.clear();
+    kept.lateral_strain.clear();
+    std::vector<double> forces;
+    for (size_t i = 0; i < d->lateral_strain.size(); ++i) {
+      if (!(std::abs(d->lateral_strain[i]) >= fraction * largest && d->lateral_strain[i] != 0)) continue;
+      kept.extension_mm.push_back(d->extension_mm[i]);
+      if (!d->time_s.empty()) kept.time_s.push_back(d->time_s[i]);
+      kept.lateral_strain.push_back(d->lateral_strain[i]);
+      forces.push_back(d->force_N[static_cast<Eigen::Index>(i)]);
+    }
+    kept.force_N = Eigen::Map<const Eigen::VectorXd>(forces.data(), static_cast<Eigen::Index>(forces.size()));
+    *d = std::move(kept);
+  }
+
+  std::shared_ptr<Experiment> experiment(const FitContext& context, const RunData& d, int level) const {
+    return context.tensile_experiment(d, level, context.params);
+  }
+
+  // The run's lateral-strain experiment (the tensile experiment's options), its lateral
+  // strains as the measured values.
+  std::shared_ptr<Experiment> lateral_experiment(const FitContext& context, const RunData& d, int level) const {
+    RunData as_lateral = d;
+    as_lateral.force_N = Eigen::Map<const Eigen::VectorXd>(d.lateral_strain.data(),
+                                                           static_cast<Eigen::Index>(d.lateral_strain.size()));
+    return context.tensile_experiment(as_lateral, level, context.params, kLateralExperiment);
   }
 
   const ComponentChoice* find_effect(const FitContext& context) const {
@@ -141,7 +197,7 @@ class EffectFit final : public FitStage {
   }
 
   std::string resolution_at(const FitContext& context, int level) const {
-    const TensileSetup s = context.setup_for(*runs_.front().test, level);
+    const TensileSetup s = context.setup_for(runs_.empty() ? *lateral_runs_.front().test : *runs_.front().test, level);
     return FitContext::resolution_text(s.cells_across, s.cells_along);
   }
 

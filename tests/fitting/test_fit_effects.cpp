@@ -74,17 +74,21 @@ std::string write_dataset(const std::string& name, const MaterialParameters& tru
     const ExperimentRun run =
         create_experiment(registry(), default_choice(registry_category::kExperiment, "tensile"), input)->simulate(truth);
     EXPECT_TRUE(run.completed) << run.message;
+    const std::vector<double>& lateral = run.extras.at(0).second;  // lateral_strain
     std::ofstream csv(dir / "tensile" / (t.label + ".csv"));
-    csv << "extension_mm,force_N\n";
-    for (size_t i = 0; i < run.schedule.size(); ++i) csv << run.schedule[i] << "," << run.values[static_cast<Eigen::Index>(i)] << "\n";
+    csv.precision(12);
+    csv << "extension_mm,force_N,lateral_strain\n";
+    for (size_t i = 0; i < run.schedule.size(); ++i)
+      csv << run.schedule[i] << "," << run.values[static_cast<Eigen::Index>(i)] << "," << lateral[i] << "\n";
     yaml << "- angle_deg: " << t.angle_deg << "\n  label: " << t.label << "\n  width_mm: 50\n  gauge_length_mm: 75\n"
          << "  rate_mm_min: " << t.rate_mm_min << "\n  runs: [tensile/" << t.label << ".csv]\n";
   }
   return dir.string();
 }
 
-// The tiny protocol (three linear curve stages at 2x3) and the effect-fit stage.
-Options config_with(const std::string& effect) {
+// The tiny protocol (three linear curve stages at 2x3) and the effect-fit stage (with
+// `stage_options`, e.g. ", observable: lateral_strain").
+Options config_with(const std::string& effect, const std::string& stage_options = "") {
   const OptionSchema schema = fit_config_schema();
   Options config = default_options(schema, &registry());
   apply_overrides(config, schema, &registry(),
@@ -93,7 +97,7 @@ Options config_with(const std::string& effect) {
                    "protocol=[{name: tensile-curve, label: warp, angle_deg: 90, term: eta1, max_degree: 1},"
                    " {name: tensile-curve, label: weft, angle_deg: 0, term: eta3, max_degree: 1},"
                    " {name: tensile-curve, label: bias, angle_deg: 45, term: eta4, max_degree: 1},"
-                   " {name: effect-fit, effect: " + effect + "}]"});
+                   " {name: effect-fit, effect: " + effect + stage_options + "}]"});
   return config;
 }
 
@@ -135,6 +139,29 @@ TEST(FitWithEffects, HysteresisFromLoadingAndUnloadingRuns) {
   ASSERT_EQ(report.parameters.effects.size(), 1u);
   EXPECT_EQ(report.parameters.effects[0].name, "hysteresis");
   EXPECT_NE(params_to_yaml(report.parameters).find("warp_friction_N_m"), std::string::npos);
+  fs::remove_all(folder);
+}
+
+TEST(FitWithEffects, PoissonFromLateralStrains) {
+  ComponentChoice poisson = default_choice(registry_category::kEffect, "poisson");
+  poisson.options.set("coupling_ratio", 0.3);
+  const MaterialParameters truth = truth_with(poisson);
+  std::vector<double> loading;
+  for (int i = 1; i <= 10; ++i) loading.push_back(0.5 * i);
+  const std::string folder = write_dataset("poisson", truth,
+                                           {{"warp", 90, 300, loading}, {"weft", 0, 300, loading},
+                                            {"bias", 45, 300, loading}});
+  const FitReport report = run_fit(read_dataset(folder),
+                                   config_with("poisson", ", observable: both"),
+                                   registry(), {});
+  ASSERT_EQ(report.effects.size(), 1u);
+  const FitEffect& e = report.effects[0];
+  std::printf("[measured] poisson fit: force and lateral-strain error %.3f %% without (r = 0.5), %.4f %% with; "
+              "r = %.4f\n",
+              100 * e.error_without, 100 * e.error_with, fitted(report, "poisson.coupling_ratio"));
+  EXPECT_GT(e.error_without, 0.05);  // r = 0.5 narrows the strips visibly more than 0.3
+  EXPECT_LT(e.error_with, 1e-3);
+  EXPECT_NEAR(fitted(report, "poisson.coupling_ratio"), 0.3, 1e-3);
   fs::remove_all(folder);
 }
 

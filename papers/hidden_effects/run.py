@@ -1,0 +1,119 @@
+#!/usr/bin/env python3
+"""Fitting hidden effects back (issue #15): for each effect spec and seed, a dataset with the
+effect hidden by synthesize.py's own law and its twin with no effect (same seed: the same
+specimens, offsets and noise), each fitted by `twill fit --set 'effects=[E]'`.
+
+    run.py TWILL OUTDIR [--effects hysteresis rate-dependence] [--seeds 1 2 3] [--set KEY=VALUE ...]
+
+Per (effect, seed) it reads the effect-fit stage's row of report.json:
+  error_without  the paper's model fitted (its curves fitted on the loading branches), over
+                 every row of the runs (the effect hidden in them);
+  error_with     the effect fitted jointly with the curves;
+  floor          error_without on the twin with no effect: what the paper's model reaches on
+                 the generator's scatter, offsets and noise alone (the noise floor);
+  null_with      error_with on the twin: the effect must not buy much where there is none;
+and the fitted parameters against the generator's, scaled by the mean specimen scale of the
+runs the fit used (truth.yaml's `runs`). Writes OUTDIR/summary.md and summary.json.
+"""
+import argparse
+import json
+import os
+import subprocess
+import sys
+
+import yaml
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+# Which generated amplitudes each fitted parameter estimates, and the tests that identify it.
+COMPARED = {
+    "hysteresis": [("hysteresis.warp_friction_N_m", "warp_friction_N_m", "warp"),
+                   ("hysteresis.weft_friction_N_m", "weft_friction_N_m", "weft")],
+    "rate-dependence": [],
+}
+
+
+def run(cmd, log):
+    with open(log, "w") as f:
+        status = subprocess.run(cmd, stdout=f, stderr=subprocess.STDOUT).returncode
+    if status != 0:
+        print(f"failed ({status}): {' '.join(cmd)}; see {log}", file=sys.stderr)
+    return status == 0
+
+
+def twin_spec(spec_path, out_path, hidden):
+    with open(spec_path) as f:
+        spec = yaml.safe_load(f)
+    spec["truth"] = os.path.join(HERE, spec["truth"]) if not os.path.isabs(spec["truth"]) else spec["truth"]
+    if not hidden:
+        spec["effect"] = {"name": "none"}
+    with open(out_path, "w") as f:
+        yaml.safe_dump(spec, f, sort_keys=False)
+
+
+def effect_row(report_path):
+    with open(report_path) as f:
+        report = json.load(f)
+    return report["effects"][0], report
+
+
+def mean_scale(truth, report, label):
+    used = {c["run"] for c in report["fit"] if c["label"].startswith(label)}
+    scales = [r["scale"] for r in truth["runs"] if os.path.splitext(os.path.basename(r["run"]))[0] in used]
+    return sum(scales) / len(scales) if scales else float("nan")
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("twill")
+    parser.add_argument("out")
+    parser.add_argument("--effects", nargs="+", default=["hysteresis", "rate-dependence"])
+    parser.add_argument("--seeds", nargs="+", type=int, default=[1, 2, 3])
+    parser.add_argument("--set", nargs="*", default=["resolution.levels=1"], dest="overrides")
+    args = parser.parse_args()
+    os.makedirs(args.out, exist_ok=True)
+    rows = []
+    for effect in args.effects:
+        for seed in args.seeds:
+            row = {"effect": effect, "seed": seed}
+            for hidden in (True, False):
+                tag = f"{effect}-{seed}-{'hidden' if hidden else 'none'}"
+                spec = os.path.join(args.out, tag + ".spec.yaml")
+                twin_spec(os.path.join(HERE, f"{effect}.yaml"), spec, hidden)
+                data, fit = os.path.join(args.out, tag), os.path.join(args.out, tag + "-fit")
+                if not os.path.exists(os.path.join(fit, "report.json")):
+                    ok = run([sys.executable, os.path.join(HERE, "synthesize.py"), spec, "-o", data, "--twill",
+                              args.twill, "--seed", str(seed)], data + ".log")
+                    cmd = [args.twill, "fit", data, "-o", fit, "--quiet", "--set", f"effects=[{effect}]"]
+                    for o in args.overrides:
+                        cmd += ["--set", o]
+                    if not (ok and run(cmd, fit + ".log")):
+                        continue
+                e, report = effect_row(os.path.join(fit, "report.json"))
+                if hidden:
+                    row.update(error_without=e["error_without"], error_with=e["error_with"],
+                               parameters={p["name"]: p["value"] for p in e["parameters"]})
+                    with open(os.path.join(data, "truth.yaml")) as f:
+                        truth = yaml.safe_load(f)
+                    row["recovery"] = {}
+                    for name, key, label in COMPARED.get(effect, []):
+                        expected = truth["effect"][key] * mean_scale(truth, report, label)
+                        row["recovery"][name] = {"fitted": row["parameters"][name], "expected": expected,
+                                                 "relative": row["parameters"][name] / expected - 1}
+                else:
+                    row.update(floor=e["error_without"], null_with=e["error_with"])
+            rows.append(row)
+            print(json.dumps(row), flush=True)
+    with open(os.path.join(args.out, "summary.json"), "w") as f:
+        json.dump(rows, f, indent=1)
+    with open(os.path.join(args.out, "summary.md"), "w") as f:
+        f.write("| effect | seed | error without | error with | floor | with, on the twin | recovery |\n"
+                "|---|---|---|---|---|---|---|\n")
+        for r in rows:
+            rec = ", ".join(f"{k.split('.')[-1]} {100 * v['relative']:+.1f} %" for k, v in r.get("recovery", {}).items())
+            pct = lambda k: f"{100 * r[k]:.2f} %" if k in r else "—"
+            f.write(f"| {r['effect']} | {r['seed']} | {pct('error_without')} | {pct('error_with')} | {pct('floor')} | "
+                    f"{pct('null_with')} | {rec} |\n")
+
+
+if __name__ == "__main__":
+    main()
