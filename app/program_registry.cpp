@@ -23,6 +23,7 @@ void register_program(Registry& registry) {
   register_hysteresis(registry);
   register_poisson(registry);
   register_rate_dependence(registry);
+  register_bending_anisotropy(registry);
 
   // stage
   register_fit_stages(registry);

@@ -132,7 +132,7 @@ CurveValue evaluate_curve(const Curve& c, double x) {
 }
 
 MaterialLaw::MaterialLaw(const MaterialParameters& parameters)
-    : parameters_(parameters), layout_(parameters) {}
+    : parameters_(parameters), layout_(parameters), bending_scale_(twill::bending_scale(parameters)) {}
 
 namespace {
 struct ThreeTerms {

@@ -16,6 +16,7 @@
 // continuous across the box (C²), which Newton and the sensitivities need.
 #include <Eigen/Core>
 
+#include "core/bending_scale.hpp"
 #include "core/parameters.hpp"
 
 namespace twill {
@@ -39,6 +40,12 @@ class MaterialLaw {
   const MaterialParameters& parameters() const { return parameters_; }
   /// Number of columns of every parameter derivative (= parameters().flat_size()).
   int num_parameters() const { return layout_.size; }
+  /// Offsets of the flat vector's blocks for these parameters.
+  const FlatLayout& layout() const { return layout_; }
+  /// The shells' bending-strain scale S from the law-side bending ratios
+  /// (core/bending_scale.hpp), computed once here. ψ does not depend on the ratios (their
+  /// columns of parameter_derivatives() are zero); the shells' bending terms do.
+  const BendingScale& bending_scale() const { return bending_scale_; }
 
   /// ψ(e) [Pa]. Optional ∂ψ/∂e (3) and ∂²ψ/∂e² (3×3, symmetric); pass nullptr to skip.
   double energy_density(const Vector3& e, Vector3* gradient = nullptr,
@@ -46,14 +53,15 @@ class MaterialLaw {
 
   /// Parameter derivatives at strain e in the flat layout of parameters.hpp:
   /// ∂ψ/∂k (num_parameters()) and the mixed ∂²ψ/∂e∂k (3 × num_parameters()).
-  /// Columns of density and thickness are zero (they do not enter ψ); either output may be
-  /// nullptr. Outputs are resized.
+  /// Columns of density, thickness and the bending ratios are zero (they do not enter ψ);
+  /// either output may be nullptr. Outputs are resized.
   void parameter_derivatives(const Vector3& e, Eigen::VectorXd* dpsi_dk,
                              StrainParameterMatrix* d2psi_de_dk) const;
 
  private:
   MaterialParameters parameters_;
   FlatLayout layout_;
+  BendingScale bending_scale_;
 };
 
 }  // namespace twill

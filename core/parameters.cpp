@@ -47,7 +47,8 @@ FlatLayout::FlatLayout(const MaterialParameters& p) {
   eta1 = kFirstCurve;
   eta3 = eta1 + 2 * p.eta1.degree() - 1;
   eta4 = eta3 + 2 * p.eta3.degree() - 1;
-  effects = eta4 + 2 * p.eta4.degree() - 1;
+  bending = eta4 + 2 * p.eta4.degree() - 1;
+  effects = bending + kBendingRatios;
   size = effects + count_effect_parameters(p.effects);
 }
 
@@ -65,6 +66,8 @@ Eigen::VectorXd MaterialParameters::to_flat() const {
   append_curve_flat(eta1, flat, at);
   append_curve_flat(eta3, flat, at);
   append_curve_flat(eta4, flat, at);
+  flat[at++] = bending_warp_ratio;
+  flat[at++] = bending_weft_ratio;
   for_each_effect_parameter(effects, [&](const std::string&, const ComponentChoice& effect, const std::string& key) {
     flat[at++] = effect.options.get_double(key);
   });
@@ -87,6 +90,8 @@ void MaterialParameters::set_from_flat(const Eigen::VectorXd& flat) {
   read_curve_flat(eta1, flat, at);
   read_curve_flat(eta3, flat, at);
   read_curve_flat(eta4, flat, at);
+  bending_warp_ratio = flat[at++];
+  bending_weft_ratio = flat[at++];
   for (ComponentChoice& effect : effects)
     for (const OptionEntry& entry : effect.options.entries())
       if (std::holds_alternative<double>(entry.value)) effect.options.set(entry.key, flat[at++]);
@@ -98,6 +103,7 @@ std::vector<std::string> MaterialParameters::parameter_names() const {
   append_curve_names("eta1", eta1, names);
   append_curve_names("eta3", eta3, names);
   append_curve_names("eta4", eta4, names);
+  names.insert(names.end(), {kBendingWarpRatioName, kBendingWeftRatioName});
   for_each_effect_parameter(effects, [&names](const std::string& name, const ComponentChoice&, const std::string&) {
     names.push_back(name);
   });

@@ -12,6 +12,12 @@
 //   then for each curve c in (eta1, eta3, eta4), degree d:
 //     c.mu[1] … c.mu[d-1]      (d − 1 entries; mu[0] = 1 − Σ_{i≥1} mu[i] is *dependent*)
 //     c.alpha[0] … c.alpha[d-1] (d entries)
+//   then the two law-side bending ratios "bending.warp_ratio", "bending.weft_ratio" (b_w, b_f:
+//     factors on the small-curvature bending stiffness along warp and weft, 1 = the paper's
+//     model; core/bending_scale.hpp). ψ does not depend on them (zero columns of the law's
+//     derivatives); the shells' bending terms do. params.yaml does not carry them: the
+//     bending-anisotropy effect's law hook sets them from its own parameters
+//     (docs/effects/bending-anisotropy.md), so in a file they are always 1;
 //   then for each effect in `effects` (in order), each of its double options in their
 //   resolved (schema) order, named "<effect>.<option>", e.g. "hysteresis.warp_friction_N_m"
 //   (effects/effect.hpp: the effects' parameters; integer, bool and text options are choices,
@@ -30,6 +36,10 @@
 #include "core/config.hpp"
 
 namespace twill {
+
+/// Flat names of the law-side bending ratios (layout above).
+inline constexpr const char* kBendingWarpRatioName = "bending.warp_ratio";
+inline constexpr const char* kBendingWeftRatioName = "bending.weft_ratio";
 
 /// One Ogden-like curve η(x) = Σ_i μ_i/α_i ((x+1)^α_i − 1) (paper §3.1). Degree = size.
 struct Curve {
@@ -62,6 +72,12 @@ struct MaterialParameters {
   Curve eta3 = Curve::linear();  ///< weft stretch curve
   Curve eta4 = Curve::linear();  ///< shear curve
   Cutoffs cutoffs;
+  /// Law-side bending ratios b_w, b_f (layout above; > 0): the shells scale the orthotropic
+  /// bending strain by S = diag(√b_w, √b_f, (b_w b_f)^¼) before the through-thickness
+  /// integral (core/bending_scale.hpp). Not in params.yaml: set by the bending-anisotropy
+  /// effect's law hook.
+  double bending_warp_ratio = 1.0;
+  double bending_weft_ratio = 1.0;
   /// The model's effects (effects/effect.hpp) with their parameters, as params.yaml's
   /// `effects:` carries them (docs/dataset-format.md): registered name and resolved options.
   /// Empty: the paper's model. Their double options are the last block of the flat vector
@@ -88,7 +104,10 @@ struct MaterialParameters {
 struct FlatLayout {
   static constexpr int kDensity = 0, kThickness = 1, kA11 = 2, kA12 = 3, kA22 = 4, kG12 = 5;
   static constexpr int kFirstCurve = 6;
+  /// Entries of the bending block: warp ratio, then weft ratio.
+  static constexpr int kBendingRatios = 2;
   int eta1 = 0, eta3 = 0, eta4 = 0;  ///< offset of each curve's block (its mu[1] entry)
+  int bending = 0;  ///< offset of the bending ratios (bending.warp_ratio; weft at bending + 1)
   int effects = 0;  ///< offset of the effects' parameters (= the law's parameter count)
   int size = 0;
   explicit FlatLayout(const MaterialParameters& p);

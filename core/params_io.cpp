@@ -43,7 +43,9 @@ std::optional<Problem> find_problem(const MaterialParameters& p) {
                                                      {"thickness_m", p.thickness_m},
                                                      {"a11_Pa", p.a11_Pa},
                                                      {"a22_Pa", p.a22_Pa},
-                                                     {"G12_Pa", p.G12_Pa}};
+                                                     {"G12_Pa", p.G12_Pa},
+                                                     {kBendingWarpRatioName, p.bending_warp_ratio},
+                                                     {kBendingWeftRatioName, p.bending_weft_ratio}};
   for (const auto& [key, value] : positive)
     if (!(value > 0.0)) return Problem{key, "must be positive, got " + format_double(value)};
   if (!(p.a12_Pa >= 0.0)) return Problem{"a12_Pa", "must be zero or positive, got " + format_double(p.a12_Pa)};

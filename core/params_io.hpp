@@ -24,8 +24,15 @@
 // left out takes the effect's default); absent or empty: the paper's model. Reading a file
 // with effects needs the registry (the readers' `registry` argument).
 //
-// Constraints checked on reading (each an InputError naming file, line and key):
-// - density_kg_m2, thickness_m, a11_Pa, a22_Pa, G12_Pa > 0;
+// The law-side bending ratios of the flat vector (parameters.hpp: bending.warp_ratio,
+// bending.weft_ratio) are not keys of the file: they read as 1 and are not written. The
+// bending-anisotropy effect carries their values under `effects:` and its law hook sets them
+// (docs/effects/bending-anisotropy.md), so a file never loses them; a material whose ratios
+// were set in code (e.g. law_adjusted(), effects/effect_experiment.hpp) is written without them.
+//
+// Constraints checked on reading and by validate_parameters() (each an InputError naming file,
+// line and key):
+// - density_kg_m2, thickness_m, a11_Pa, a22_Pa, G12_Pa > 0 (and the bending ratios > 0);
 // - a12_Pa ≥ 0 and a12² < a11·a22: the small-strain stiffness [[a11, a12], [a12, a22]] must be
 //   positive definite (a12 = 0, no coupling, is allowed; the paper's a12 = ½ min(a11, a22)
 //   always satisfies both);

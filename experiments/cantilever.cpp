@@ -102,10 +102,11 @@ CantileverResult CantileverExperiment::solve(double overhang_mm) const {
 }
 
 namespace {
-/// Small-strain stiffness C_abcd in strip axes (a, b ∈ {x, y}) from the law's Hessian at
-/// zero strain: a unit Green strain E = s⊗t (symmetrised) has Ẽ = (d1·E·d1, d2·E·d2, d1·E·d2).
-double strip_stiffness(const MaterialParameters& p, double angle_deg, const Eigen::Vector2d& s1,
-                       const Eigen::Vector2d& s2) {
+/// Small-curvature bending stiffness S C S (C the law's Hessian at zero strain, S the
+/// bending-strain scale of the bending ratios, core/bending_scale.hpp) in strip axes
+/// (a, b ∈ {x, y}): a unit curvature K = s⊗t (symmetrised) has ẽ = (d1·K·d1, d2·K·d2, d1·K·d2).
+double strip_bending_stiffness(const MaterialParameters& p, double angle_deg, const Eigen::Vector2d& s1,
+                               const Eigen::Vector2d& s2) {
   const double t = angle_deg * std::numbers::pi / 180.0;
   const Eigen::Vector2d d2(std::cos(t), std::sin(t)), d1(-std::sin(t), std::cos(t));
   auto orthotropic = [&](const Eigen::Vector2d& a) {
@@ -113,23 +114,25 @@ double strip_stiffness(const MaterialParameters& p, double angle_deg, const Eige
   };
   Matrix3 H;
   Vector3 g;
-  MaterialLaw(p).energy_density(Vector3::Zero(), &g, &H);
-  return orthotropic(s1).dot(H * orthotropic(s2));
+  const MaterialLaw law(p);
+  law.energy_density(Vector3::Zero(), &g, &H);
+  const auto S = law.bending_scale().diagonal.asDiagonal();
+  return orthotropic(s1).dot(S * H * S * orthotropic(s2));
 }
 }  // namespace
 
 double CantileverExperiment::bending_rigidity_plate_Nm() const {
   const double tau = parameters_.thickness_m;
   return tau * tau * tau / 12.0 *
-         strip_stiffness(parameters_, setup_.angle_deg, Eigen::Vector2d::UnitX(), Eigen::Vector2d::UnitX());
+         strip_bending_stiffness(parameters_, setup_.angle_deg, Eigen::Vector2d::UnitX(), Eigen::Vector2d::UnitX());
 }
 
 double CantileverExperiment::bending_rigidity_free_Nm() const {
   const double tau = parameters_.thickness_m;
   const Eigen::Vector2d x = Eigen::Vector2d::UnitX(), y = Eigen::Vector2d::UnitY();
-  const double cxx = strip_stiffness(parameters_, setup_.angle_deg, x, x);
-  const double cxy = strip_stiffness(parameters_, setup_.angle_deg, x, y);
-  const double cyy = strip_stiffness(parameters_, setup_.angle_deg, y, y);
+  const double cxx = strip_bending_stiffness(parameters_, setup_.angle_deg, x, x);
+  const double cxy = strip_bending_stiffness(parameters_, setup_.angle_deg, x, y);
+  const double cyy = strip_bending_stiffness(parameters_, setup_.angle_deg, y, y);
   return tau * tau * tau / 12.0 * (cxx - cxy * cxy / cyy);
 }
 

@@ -83,7 +83,8 @@ class CantileverExperiment {
 
   /// Small-strain bending rigidity per unit width along the strip axis for a plate with the
   /// lateral curvature free: B = τ³/12 · (C_xxxx − C_xxyy²/C_yyyy) [N·m], and with it held:
-  /// τ³/12 · C_xxxx. C is ∂²ψ/∂E² at zero strain rotated to the strip axes.
+  /// τ³/12 · C_xxxx. C is ∂²ψ/∂E² at zero strain scaled by the bending ratios (S C S,
+  /// core/bending_scale.hpp) and rotated to the strip axes.
   double bending_rigidity_free_Nm() const;
   double bending_rigidity_plate_Nm() const;
   /// Peirce's overhang for a rigidity B: 2 (B/w)^{1/3} [mm].

@@ -127,12 +127,15 @@ Matrix15 shell_strain_hessian(const SurfaceJet& y, const Vector6& g) {
   return H;
 }
 
-double thickness_integral(const MaterialLaw& law, double thickness_m,
-                          const GaussLegendreRule& rule, const Vector6& e, Vector6* gradient,
-                          Matrix6* hessian) {
+namespace {
+
+/// W at orthotropic strains (e_m, ê_b) with the bending strain already scaled (ê_b = S e_b):
+/// ∫ ψ(e_m − ξ ê_b) dξ by `rule`, with optional ∂W/∂(e_m, ê_b) and ∂²W/∂(e_m, ê_b)².
+double integral_of_scaled(const MaterialLaw& law, double thickness_m, const GaussLegendreRule& rule,
+                          const Vector6& e_hat, Vector6* gradient, Matrix6* hessian) {
   // ξ = h s with h = τ/2 and s the rule's nodes on [−1, 1]; dξ = h ds.
   const double h = 0.5 * thickness_m;
-  const Vector3d em = e.head<3>(), eb = e.tail<3>();
+  const Vector3d em = e_hat.head<3>(), eb = e_hat.tail<3>();
   double W = 0.0;
   if (gradient) gradient->setZero();
   if (hessian) hessian->setZero();
@@ -159,6 +162,29 @@ double thickness_integral(const MaterialLaw& law, double thickness_m,
   return W;
 }
 
+/// The strain the integral sees, (e_m, S e_b), and the diagonal (1, 1, 1, s) of its Jacobian.
+Vector6 bending_scaled(const MaterialLaw& law, const Vector6& e, Vector6* jacobian_diagonal) {
+  const Vector3d& s = law.bending_scale().diagonal;
+  Vector6 scaled;
+  scaled << e.head<3>(), s.cwiseProduct(e.tail<3>());
+  if (jacobian_diagonal) *jacobian_diagonal << 1.0, 1.0, 1.0, s;
+  return scaled;
+}
+
+}  // namespace
+
+double thickness_integral(const MaterialLaw& law, double thickness_m,
+                          const GaussLegendreRule& rule, const Vector6& e, Vector6* gradient,
+                          Matrix6* hessian) {
+  Vector6 d;
+  const double W = integral_of_scaled(law, thickness_m, rule, bending_scaled(law, e, &d), gradient, hessian);
+  // Chain rule through ê = D e, D = diag(1, 1, 1, s): ∂W/∂e = D ∂W/∂ê, ∂²W/∂e² = D ∂²W/∂ê² D
+  // (S = I multiplies by exact ones: the paper's model bit for bit).
+  if (gradient) *gradient = d.cwiseProduct(*gradient);
+  if (hessian) *hessian = d.asDiagonal() * (*hessian) * d.asDiagonal();
+  return W;
+}
+
 void thickness_integral_parameter_jacobian(const MaterialLaw& law, double thickness_m,
                                            const GaussLegendreRule& rule, const Vector6& e,
                                            StrainParameterJacobian* dgradient_dk) {
@@ -166,11 +192,18 @@ void thickness_integral_parameter_jacobian(const MaterialLaw& law, double thickn
   const int num_k = law.num_parameters();
   dgradient_dk->setZero(6, num_k);
   const double h = 0.5 * thickness_m;
-  const Vector3d em = e.head<3>(), eb = e.tail<3>();
+  const BendingScale& scale = law.bending_scale();
+  const Vector6 e_hat = bending_scaled(law, e, nullptr);
+  const Vector3d em = e_hat.head<3>(), eb = e_hat.tail<3>();
+  // ∂ê_b/∂(b_w, b_f) = (∂s/∂b) ∘ e_b, one column per ratio.
+  const Eigen::Matrix<double, 3, 2> deb_db = e.tail<3>().asDiagonal() * scale.derivative;
   Vector3 dpsi;
   Matrix3 d2psi;
   StrainParameterMatrix d2psi_de_dk;
   Vector3d d_grad_m_dh = Vector3d::Zero(), d_grad_b_dh = Vector3d::Zero();
+  // ∂W/∂ê_b, and ∂²W/∂e_m∂ê_b and ∂²W/∂ê_b² applied to ∂ê_b/∂b (for the ratio columns).
+  Vector3d grad_b = Vector3d::Zero();
+  Eigen::Matrix<double, 3, 2> mixed_db = Eigen::Matrix<double, 3, 2>::Zero(), bending_db = mixed_db;
   for (int g = 0; g < rule.size(); ++g) {
     const double s = rule.nodes[static_cast<size_t>(g)];
     const double w = rule.weights[static_cast<size_t>(g)];
@@ -178,17 +211,29 @@ void thickness_integral_parameter_jacobian(const MaterialLaw& law, double thickn
     const Vector3d strain = em - xi * eb;
     law.energy_density(strain, &dpsi, &d2psi);
     law.parameter_derivatives(strain, nullptr, &d2psi_de_dk);
-    // Law columns: ∂W/∂e_m = h Σ w ψ', ∂W/∂e_b = −h² Σ w s ψ'.
+    // Law columns: ∂W/∂e_m = h Σ w ψ', ∂W/∂ê_b = −h² Σ w s ψ'.
     dgradient_dk->topRows<3>() += (h * w) * d2psi_de_dk;
     dgradient_dk->bottomRows<3>() -= (h * h * w * s) * d2psi_de_dk;
-    // Thickness: differentiate those in h (ξ = h s moves with h: ∂Ẽ/∂h = −s e_b).
+    // Thickness: differentiate those in h (ξ = h s moves with h: ∂Ẽ/∂h = −s ê_b).
     const Vector3d d2psi_eb = d2psi * eb;
     d_grad_m_dh += w * dpsi - (h * w * s) * d2psi_eb;
     d_grad_b_dh += -(2.0 * h * w * s) * dpsi + (h * h * w * s * s) * d2psi_eb;
+    grad_b -= (h * w * xi) * dpsi;
+    mixed_db -= (h * w * xi) * d2psi * deb_db;
+    bending_db += (h * w * xi * xi) * d2psi * deb_db;
   }
   // The law leaves thickness and density columns zero (they do not enter ψ); dh/dτ = ½.
   dgradient_dk->col(FlatLayout::kThickness).head<3>() = 0.5 * d_grad_m_dh;
   dgradient_dk->col(FlatLayout::kThickness).tail<3>() = 0.5 * d_grad_b_dh;
+  // Rows in ê_b so far: ∂W/∂e_b = S ∂W/∂ê_b.
+  dgradient_dk->bottomRows<3>() = scale.diagonal.asDiagonal() * dgradient_dk->bottomRows<3>();
+  // Ratio columns (zero from the law): ∂(∂W/∂e_m)/∂b = ∂²W/∂e_m∂ê_b ∂ê_b/∂b and
+  // ∂(S ∂W/∂ê_b)/∂b = (∂s/∂b) ∘ ∂W/∂ê_b + S ∂²W/∂ê_b² ∂ê_b/∂b.
+  for (int j = 0; j < FlatLayout::kBendingRatios; ++j) {
+    auto column = dgradient_dk->col(law.layout().bending + j);
+    column.head<3>() = mixed_db.col(j);
+    column.tail<3>() = scale.derivative.col(j).cwiseProduct(grad_b) + scale.diagonal.cwiseProduct(bending_db.col(j));
+  }
 }
 
 double kirchhoff_love_point(const MaterialLaw& law, double thickness_m,

@@ -14,8 +14,11 @@
 //     (A^α: reference contravariant basis, D = [d1 d2]: warp, weft).
 //   Through the thickness Ẽ(ξ) = e_m − ξ e_b, ξ ∈ [−τ/2, τ/2] along +n; the bending strain e_b
 //   is [1/m], e_m and Ẽ are dimensionless.
-//   W(e) = ∫ ψ(e_m − ξ e_b) dξ  [J/m²], by Gauss–Legendre in ξ (exact for polynomial ψ of
-//   degree ≤ 2 n_ξ − 1, e.g. StVK with n_ξ ≥ 2).
+//   W(e) = ∫ ψ(e_m − ξ S e_b) dξ  [J/m²], by Gauss–Legendre in ξ (exact for polynomial ψ of
+//   degree ≤ 2 n_ξ − 1, e.g. StVK with n_ξ ≥ 2). S = diag(s) is the bending-strain scale of
+//   the law-side bending ratios (law.bending_scale(), core/bending_scale.hpp): S = I is the
+//   paper's model; otherwise warp and weft bending stiffness scale by b_w and b_f
+//   (docs/effects/bending-anisotropy.md).
 //   Point energy = w dA · W, with w dA = Gauss weight × |A1×A2| [m²].
 #include <Eigen/Core>
 
@@ -61,15 +64,17 @@ Vector6 shell_strains(const SurfaceJet& y, const Eigen::Vector3d& A, const Eigen
 /// the second derivatives of the unit normal.
 Matrix15 shell_strain_hessian(const SurfaceJet& y, const Vector6& g);
 
-/// W(e) = ∫_{−τ/2}^{τ/2} ψ(e_m − ξ e_b) dξ [J/m²] by the Gauss–Legendre rule `rule` (on
-/// [−1, 1], scaled to the thickness). Optional ∂W/∂e (6) and ∂²W/∂e² (6×6).
+/// W(e) = ∫_{−τ/2}^{τ/2} ψ(e_m − ξ S e_b) dξ [J/m²] by the Gauss–Legendre rule `rule` (on
+/// [−1, 1], scaled to the thickness), S = diag(law.bending_scale().diagonal). Optional ∂W/∂e
+/// (6) and ∂²W/∂e² (6×6), in the unscaled e.
 double thickness_integral(const MaterialLaw& law, double thickness_m,
                           const GaussLegendreRule& rule, const Vector6& e, Vector6* gradient,
                           Matrix6* hessian);
 
 /// ∂(∂W/∂e)/∂k (6 × law.num_parameters(), flat layout of parameters.hpp): the thickness
-/// column through the integration limits and weights, the law columns through ∂²ψ/∂e∂k;
-/// the density column is zero. Resized.
+/// column through the integration limits and weights, the law columns through ∂²ψ/∂e∂k, the
+/// bending-ratio columns through S (∂S/∂b e_b moves the through-thickness strains and ∂S/∂b
+/// scales ∂W/∂e_b); the density column is zero. Resized.
 void thickness_integral_parameter_jacobian(const MaterialLaw& law, double thickness_m,
                                            const GaussLegendreRule& rule, const Vector6& e,
                                            StrainParameterJacobian* dgradient_dk);

@@ -23,6 +23,36 @@ Eigen::Matrix3d cross_matrix(const Eigen::Vector3d& v) {
 
 }  // namespace
 
+MaterialParameters bending_parameters(const MaterialLaw& law, BendingParameterChain* chain) {
+  const MaterialParameters& p = law.parameters();
+  const BendingScale& scale = law.bending_scale();
+  // Each stiffness with the entry (i, j) of C it sits in: (0,0) a11, (0,1) a12, (1,1) a22,
+  // (2,2) 2 G12; the order of the first four bending columns.
+  struct Entry {
+    double MaterialParameters::*field;
+    int flat, i, j;
+  };
+  const std::array<Entry, 4> entries = {{{&MaterialParameters::a11_Pa, FlatLayout::kA11, 0, 0},
+                                         {&MaterialParameters::a12_Pa, FlatLayout::kA12, 0, 1},
+                                         {&MaterialParameters::a22_Pa, FlatLayout::kA22, 1, 1},
+                                         {&MaterialParameters::G12_Pa, FlatLayout::kG12, 2, 2}}};
+  MaterialParameters out = p;
+  // The ratios are in the stiffnesses now: 1, so that nothing applies them twice.
+  out.bending_warp_ratio = out.bending_weft_ratio = 1.0;
+  if (chain) chain->setZero(kBendingParameters, law.num_parameters());
+  for (size_t r = 0; r < entries.size(); ++r) {
+    const Entry& e = entries[r];
+    out.*e.field = scale.stiffness_factor(e.i, e.j) * p.*e.field;
+    if (!chain) continue;
+    const auto row = static_cast<Eigen::Index>(r);
+    (*chain)(row, e.flat) = scale.stiffness_factor(e.i, e.j);
+    chain->row(row).segment<FlatLayout::kBendingRatios>(law.layout().bending) =
+        p.*e.field * scale.stiffness_factor_derivative(e.i, e.j);
+  }
+  if (chain) (*chain)(kBendingParameters - 1, FlatLayout::kThickness) = 1.0;
+  return out;
+}
+
 double dihedral_angle(const Eigen::Vector3d& x0, const Eigen::Vector3d& x1,
                       const Eigen::Vector3d& x2, const Eigen::Vector3d& x3, Vector12* gradient,
                       Matrix12* hessian) {

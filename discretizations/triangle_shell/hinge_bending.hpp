@@ -21,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "core/material_law.hpp"
 #include "core/parameters.hpp"
 
 namespace twill {
@@ -55,6 +56,20 @@ struct HingeReference {
 };
 HingeReference hinge_reference(const Eigen::Vector2d& X0, const Eigen::Vector2d& X1,
                                const Eigen::Vector2d& X2, const Eigen::Vector2d& X3);
+
+/// Every bending model of the triangle shell depends on the material through the five
+/// parameters (a11, a12, a22, G12, τ): the columns of their derivatives, in this order.
+inline constexpr int kBendingParameters = 5;
+/// ∂(a11', a12', a22', G12', τ')/∂k: the bending models' columns in the flat vector.
+using BendingParameterChain = Eigen::Matrix<double, kBendingParameters, Eigen::Dynamic>;
+
+/// The material the bending models see: C = ∂²ψ/∂ẽ²(0) scaled to S C S by the law-side
+/// bending ratios (core/bending_scale.hpp, the same S the Catmull–Clark shell applies to e_b;
+/// docs/effects/bending-anisotropy.md), i.e. with C_ij scaled by s_i s_j:
+///     a11' = b_w a11,  a12' = √(b_w b_f) a12,  a22' = b_f a22,  G12' = √(b_w b_f) G12,  τ' = τ,
+/// the law's parameters otherwise (ratios 1: they are in the stiffnesses). `chain` (optional) receives ∂(a11', a12', a22', G12', τ')/∂k
+/// (5 × law.num_parameters()). Ratios 1: the law's own parameters, the chain picks their columns.
+MaterialParameters bending_parameters(const MaterialLaw& law, BendingParameterChain* chain);
 
 /// Number of calibration cylinders and their order: bending along warp d1, along weft d2,
 /// along (d1 + d2)/√2 and along (d1 − d2)/√2 ("along u": the curvature is u⊗u/R).

@@ -485,7 +485,8 @@ TriangleShell::TriangleShell(const StripSpec& strip, const MaterialParameters& p
 
 void TriangleShell::update_hinge_stiffness() {
   Impl& m = *impl_;
-  const MaterialParameters& p = law_->parameters();
+  bending_ = bending_parameters(*law_, &bending_chain_);
+  const MaterialParameters& p = bending_;
   try {
     if (m.shape) {
       m.shape_stiffness = m.shape->solve(p);
@@ -774,7 +775,7 @@ double TriangleShell::clamp_hinge_stiffness(Eigen::Matrix<double, 1, 5>* derivat
   // every apex position. ũ = (x̂·d1, x̂·d2) = (−sin θ_m, cos θ_m) (core/discretization.hpp).
   const double angle = strip_.angle_deg * std::numbers::pi / 180.0;
   const double u1 = -std::sin(angle), u2 = std::cos(angle);
-  const double w = kirchhoff_love_cylinder_energy(law_->parameters(),
+  const double w = kirchhoff_love_cylinder_energy(bending_,
                                                   Eigen::Vector3d(u1 * u1, u2 * u2, u1 * u2),
                                                   derivative);
   if (derivative) *derivative /= 3.0;
@@ -789,9 +790,9 @@ void TriangleShell::gradient_parameter_jacobian(const Eigen::VectorXd& q,
   const int nf = m.num_faces();
   Eigen::MatrixXd& J = *dgradient_dk;
   J.setZero(num_dofs(), nk);
-  // Columns of the hinge stiffness derivative (hinge_bending.hpp: a11, a12, a22, G12, τ).
-  const std::array<int, 5> bending_columns = {FlatLayout::kA11, FlatLayout::kA12, FlatLayout::kA22,
-                                              FlatLayout::kG12, FlatLayout::kThickness};
+  // Bending terms by the bending models' parameters (a11', a12', a22', G12', τ), chained to the
+  // flat vector at the end (bending_parameters()).
+  Eigen::MatrixXd B = Eigen::MatrixXd::Zero(num_dofs(), kBendingParameters);
   const int nh = m.num_hinges();
   Eigen::Matrix<double, 1, 5> clamp_dk;
   clamp_hinge_stiffness(&clamp_dk);
@@ -804,9 +805,9 @@ void TriangleShell::gradient_parameter_jacobian(const Eigen::VectorXd& q,
       Vector12 dtheta;
       const double theta = dihedral_angle(vertex(q, c.v[0]), vertex(q, c.v[1]),
                                           vertex(q, c.v[2]), c.ghost, &dtheta, nullptr);
-      for (size_t p = 0; p < bending_columns.size(); ++p) {
-        const double scale = 2.0 * clamp_dk[static_cast<Eigen::Index>(p)] * c.weight * theta;
-        scatter_nodal(J.col(bending_columns[p]).data(), v,
+      for (Eigen::Index p = 0; p < kBendingParameters; ++p) {
+        const double scale = 2.0 * clamp_dk[p] * c.weight * theta;
+        scatter_nodal(B.col(p).data(), v,
                       [&](int a, int r) { return scale * dtheta[3 * a + r]; });
       }
       return;
@@ -826,10 +827,10 @@ void TriangleShell::gradient_parameter_jacobian(const Eigen::VectorXd& q,
     // ∂(2 k g θ ∇θ)/∂k_param = 2 (∂k/∂param) g θ ∇θ.
     const Vector12 unit = 2.0 * m.hinge_weight[hu] * theta * dtheta;
     const auto he = static_cast<Eigen::Index>(hu);
-    for (size_t p = 0; p < bending_columns.size(); ++p) {
-      const double dk = hinges_.derivative(he, static_cast<Eigen::Index>(p));
+    for (Eigen::Index p = 0; p < kBendingParameters; ++p) {
+      const double dk = hinges_.derivative(he, p);
       if (dk == 0.0) continue;
-      scatter_nodal(J.col(bending_columns[p]).data(), v,
+      scatter_nodal(B.col(p).data(), v,
                     [&](int a, int r) { return dk * unit[3 * a + r]; });
     }
   });
@@ -851,7 +852,7 @@ void TriangleShell::gradient_parameter_jacobian(const Eigen::VectorXd& q,
         const ShapeOperatorBending::Face& face = faces[fu];
         if (face.measured.empty()) continue;
         const auto rotations = measured_rotations(face, theta, phi, rotations_storage);
-        const auto dS = m.shape->form_derivative(f, law_->parameters(), m.shape_stiffness);
+        const auto dS = m.shape->form_derivative(f, bending_, m.shape_stiffness);
         for (size_t p = 0; p < dS.size(); ++p) {
           auto dSs = dSs_storage.vector(dS[p].rows());
           dSs.noalias() = dS[p] * rotations;
@@ -868,14 +869,15 @@ void TriangleShell::gradient_parameter_jacobian(const Eigen::VectorXd& q,
       Eigen::Matrix<double, 1, 5> lambda = Eigen::Matrix<double, 1, 5>::Zero();
       for (int i : m.angle_users[static_cast<size_t>(id)]) lambda += dW[static_cast<size_t>(i)];
       const Vector12& dtheta_a = dtheta[static_cast<size_t>(id)];
-      for (size_t p = 0; p < bending_columns.size(); ++p) {
-        const double l = lambda[static_cast<Eigen::Index>(p)];
+      for (Eigen::Index p = 0; p < kBendingParameters; ++p) {
+        const double l = lambda[p];
         // −λ ∂θ/∂q added: the same bits as λ ∂θ/∂q subtracted.
-        scatter_nodal(J.col(bending_columns[p]).data(), m.elements[nf + id],
+        scatter_nodal(B.col(p).data(), m.elements[nf + id],
                       [&](int i, int r) { return -(l * dtheta_a[3 * i + r]); });
       }
     });
   }
+  J.noalias() += B * bending_chain_;
   // Gravity: ∂(−m_i g)/∂ρ_A = −(Σ Ā_T/3) g.
   subtract_gravity_density_column(m.vertex_area, gravity_, FlatLayout::kDensity, dgradient_dk);
 }

@@ -22,6 +22,8 @@
 //                             stiffnesses k_e ∝ τ³ from (a11, a22, a12 + G12)
 //                             (hinge_bending.hpp; §4.4–4.6): exact only for some cylinders,
 //                             and soft mesh-scale modes break the cantilever (§10).
+// Every bending model sees C scaled to S C S by the law-side bending ratios
+// (bending_parameters(), hinge_bending.hpp; 1 in the paper's model).
 // The membrane is the paper's law exactly; the through-thickness integral is split as
 // τψ(ε) + (bending at zero strain), i.e. the second-order expansion of model.md §6 with the
 // bending term evaluated at ε = 0.
@@ -176,7 +178,8 @@ class TriangleShell final : public Discretization {
   /// Shape operator: ẽ_T = (K̃11, K̃22, K̃12) of every face [1/m] (#faces × 3), free-edge
   /// rotations at their minimiser. Throws std::logic_error for the hinge models.
   Eigen::Matrix<double, Eigen::Dynamic, 3> face_curvatures(const Eigen::VectorXd& q) const;
-  /// Clamp-hinge stiffness k_b = W_cyl(x̂)/3 [J] and ∂k_b/∂(a11, a12, a22, G12, τ).
+  /// Clamp-hinge stiffness k_b = W_cyl(x̂)/3 [J] and ∂k_b/∂(a11', a12', a22', G12', τ) (the
+  /// bending models' parameters, bending_parameters()).
   double clamp_hinge_stiffness(Eigen::Matrix<double, 1, 5>* derivative = nullptr) const;
 
   const TriangleShellOptions& options() const { return options_; }
@@ -202,6 +205,10 @@ class TriangleShell final : public Discretization {
   StripSpec strip_;
   TriangleShellOptions options_;
   std::unique_ptr<MaterialLaw> law_;
+  /// What the bending models see (bending_parameters(): stiffnesses scaled by the bending
+  /// ratios) and its chain to the flat vector; recomputed by set_parameters().
+  MaterialParameters bending_;
+  BendingParameterChain bending_chain_;
   HingeClassStiffness stiffness_;
   HingeStiffness hinges_;
   Eigen::Vector3d gravity_ = Eigen::Vector3d::Zero();

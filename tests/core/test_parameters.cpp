@@ -18,12 +18,17 @@ TEST(Parameters, FlatLayoutAndNames) {
   const MaterialParameters p = sample();
   const auto names = p.parameter_names();
   ASSERT_EQ(static_cast<int>(names.size()), p.flat_size());
-  EXPECT_EQ(p.flat_size(), 6 + 3 + 5 + 1);
+  EXPECT_EQ(p.flat_size(), 6 + 3 + 5 + 1 + 2);  // ..., curves of degrees 2, 3, 1, bending ratios
   EXPECT_EQ(names[0], "density_kg_m2");
   EXPECT_EQ(names[6], "eta1.mu[1]");
   EXPECT_EQ(names[7], "eta1.alpha[0]");
   EXPECT_EQ(names[9], "eta3.mu[1]");
-  EXPECT_EQ(names.back(), "eta4.alpha[0]");
+  EXPECT_EQ(names[14], "eta4.alpha[0]");
+  EXPECT_EQ(names[15], "bending.warp_ratio");
+  EXPECT_EQ(names.back(), "bending.weft_ratio");
+  const FlatLayout layout(p);
+  EXPECT_EQ(layout.bending, 15);
+  EXPECT_EQ(layout.effects, p.flat_size());
   EXPECT_EQ(p.index_of("G12_Pa"), 5);
   EXPECT_THROW(p.index_of("eta2.mu[0]"), std::invalid_argument);
 }
@@ -37,6 +42,10 @@ TEST(Parameters, FlatRoundTripKeepsSumOfMuOne) {
   EXPECT_NEAR(p.eta3.mu[0] + p.eta3.mu[1] + p.eta3.mu[2], 1.0, 1e-15);
   EXPECT_EQ(p.to_flat(), k);
   EXPECT_THROW(p.set_from_flat(Eigen::VectorXd::Zero(3)), std::invalid_argument);
+  k[p.index_of("bending.weft_ratio")] = 2.5;
+  p.set_from_flat(k);
+  EXPECT_EQ(p.bending_weft_ratio, 2.5);
+  EXPECT_EQ(p.bending_warp_ratio, 1.0);  // the paper's model
 }
 
 }  // namespace

@@ -68,12 +68,15 @@ struct ParameterStep {
 using ParameterStepRule = std::function<std::optional<ParameterStep>(const std::string& name, double value)>;
 
 /// Every parameter, with a step relative to its value. The gradient is linear in density, the
-/// stiffnesses and the μ's; it depends on τ and the α's nonlinearly. An α acts through
-/// (1 + Ẽ²)^α with Ẽ² ~ 1e-3, so its third derivative is tiny: a step of 0.4 α is still in the
-/// asymptotic range and keeps the truncation error above round-off.
+/// stiffnesses and the μ's; it depends on τ, the bending ratios (through √b and (b_w b_f)^¼,
+/// core/bending_scale.hpp) and the α's nonlinearly. An α acts through (1 + Ẽ²)^α with
+/// Ẽ² ~ 1e-3, so its third derivative is tiny: a step of 0.4 α is still in the asymptotic
+/// range and keeps the truncation error above round-off.
 inline std::optional<ParameterStep> relative_parameter_step(const std::string& name, double value) {
   const bool alpha = name.find(".alpha[") != std::string::npos;
-  return ParameterStep{(alpha ? 0.4 : 1e-2) * std::abs(value), alpha || name == "thickness_m"};
+  const bool nonlinear =
+      alpha || name == "thickness_m" || name == kBendingWarpRatioName || name == kBendingWeftRatioName;
+  return ParameterStep{(alpha ? 0.4 : 1e-2) * std::abs(value), nonlinear};
 }
 
 /// ∂g/∂k, column by column for every flat parameter `step` does not leave out, against central differences of the

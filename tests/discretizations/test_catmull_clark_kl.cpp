@@ -21,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "core/bending_scale.hpp"
 #include "core/input_error.hpp"
 #include "core/material_law.hpp"
 #include "discretizations/catmull_clark_kl/catmull_clark_kl.hpp"
@@ -96,10 +97,11 @@ CatmullClarkKLOptions two_threads(FibreStrain fibre_strain) {
 std::array<std::vector<double>, 3> law_arguments(const CatmullClarkKL& d, const VectorXd& q) {
   const GaussLegendreRule rule = GaussLegendreRule::make(d.options().thickness_points);
   const double h = 0.5 * d.parameters().thickness_m;
+  const Vector3d scale = bending_scale(d.parameters()).diagonal;  // the law sees S e_b
   std::array<std::vector<double>, 3> values;
   for (const auto& point : d.quadrature_strains(q))
     for (double s : rule.nodes) {
-      const Vector3d e = point.membrane - h * s * point.bending;
+      const Vector3d e = point.membrane - h * s * scale.cwiseProduct(point.bending);
       values[0].push_back(e[0]);
       values[1].push_back(e[1]);
       values[2].push_back(std::abs(e[2]));
@@ -384,20 +386,26 @@ TEST_P(CatmullClarkKLDerivatives, HessianMatchesFiniteDifferencesOfTheGradient) 
 
 TEST_P(CatmullClarkKLDerivatives, ParameterJacobianMatchesFiniteDifferencesForEveryParameter) {
   d_.set_gravity(Vector3d(0.4, -0.3, -9.81));  // so that density enters the gradient
-  ASSERT_EQ(d_.parameters().to_flat().size(), 6 + 3 * 3);  // degree-2 curves: one mu and two alphas each
+  // Degree-2 curves: one mu and two alphas each; then the two bending ratios.
+  ASSERT_EQ(d_.parameters().to_flat().size(), 6 + 3 * 3 + FlatLayout::kBendingRatios);
   const testing::ParameterStepRule step = testing::relative_parameter_step;
-  // τ moves the through-thickness points: no law argument may cross a cutoff over the stencil.
+  // τ and the bending ratios move the through-thickness points: no law argument may cross a
+  // cutoff over the stencil.
   const MaterialParameters p0 = d_.parameters();
-  const double h0 = step("thickness_m", p0.thickness_m)->h0;
-  for (double sign : {-1.0, 1.0}) {
-    MaterialParameters thick = p0;
-    thick.thickness_m += sign * h0;
-    const auto before = law_arguments(d_, q_);
-    const auto after = law_arguments(CatmullClarkKL(d_.strip(), thick, d_.options()), q_);
-    for (int c = 0; c < 3; ++c)
-      for (size_t k = 0; k < before[static_cast<size_t>(c)].size(); ++k)
-        ASSERT_LT(std::abs(after[static_cast<size_t>(c)][k] - before[static_cast<size_t>(c)][k]),
-                  0.5 * design_.margin);
+  const Eigen::VectorXd k0 = p0.to_flat();
+  for (const char* name : {"thickness_m", kBendingWarpRatioName, kBendingWeftRatioName}) {
+    const int column = p0.index_of(name);
+    const double h0 = step(name, k0[column])->h0;
+    for (double sign : {-1.0, 1.0}) {
+      MaterialParameters moved = p0;
+      moved.set_from_flat(k0 + sign * h0 * VectorXd::Unit(k0.size(), column));
+      const auto before = law_arguments(d_, q_);
+      const auto after = law_arguments(CatmullClarkKL(d_.strip(), moved, d_.options()), q_);
+      for (int c = 0; c < 3; ++c)
+        for (size_t k = 0; k < before[static_cast<size_t>(c)].size(); ++k)
+          ASSERT_LT(std::abs(after[static_cast<size_t>(c)][k] - before[static_cast<size_t>(c)][k]),
+                    0.5 * design_.margin) << name;
+    }
   }
   testing::expect_parameter_jacobian_converges(d_, q_, step, 4, 1e-6);
 }

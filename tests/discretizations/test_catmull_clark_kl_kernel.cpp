@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "core/bending_scale.hpp"
 #include "core/material_law.hpp"
 #include "discretizations/catmull_clark_kl/gauss_legendre.hpp"
 #include "discretizations/catmull_clark_kl/kirchhoff_love_kernel.hpp"
@@ -93,8 +94,9 @@ std::vector<int> box_sides(const MaterialParameters& p, const GaussLegendreRule&
                            const Vector6& e) {
   std::vector<int> sides;
   const Cutoffs& c = p.cutoffs;
+  const Vector3d scaled_bending = bending_scale(p).diagonal.cwiseProduct(e.tail<3>());  // S e_b
   for (double s : rule.nodes) {
-    const Vector3d x = e.head<3>() - 0.5 * p.thickness_m * s * e.tail<3>();
+    const Vector3d x = e.head<3>() - 0.5 * p.thickness_m * s * scaled_bending;
     sides.push_back((x[0] < *c.E11_min) | (x[0] < *c.E11_max) << 1 | (x[1] < *c.E22_min) << 2 |
                     (x[1] < *c.E22_max) << 3 | (std::abs(x[2]) < *c.E12_max) << 4);
   }
@@ -107,6 +109,22 @@ Vector6 orthotropic_of(const ReferencePoint& ref, const SurfaceJet& y) {
   Vector6 e;
   e << membrane, bending;
   return e;
+}
+
+/// Whether flat entry `column` moves the law's arguments (the through-thickness strains): τ
+/// and the bending ratios, which the law itself does not see.
+bool moves_law_arguments(const MaterialParameters& p, int column) {
+  const int bending = FlatLayout(p).bending;
+  return column == FlatLayout::kThickness || (column >= bending && column < bending + FlatLayout::kBendingRatios);
+}
+
+/// The unit law with anisotropic bending ratios (b_w ≠ b_f ≠ 1: every entry of S and of ∂S/∂b
+/// differs), placed so that the through-thickness arguments stay off the box faces.
+MaterialParameters anisotropic_unit_law() {
+  MaterialParameters p = nonlinear_unit_law();
+  p.bending_warp_ratio = 1.3;
+  p.bending_weft_ratio = 0.8;
+  return p;
 }
 
 /// Steps: small enough that no law argument crosses a box face within the stencil (asserted),
@@ -292,8 +310,7 @@ TEST(ThicknessIntegral, NonlinearLawConvergesAsPointsIncrease) {
   EXPECT_LT(algebraic[4], 1e-4 * algebraic[0]);
 }
 
-TEST(ThicknessIntegral, GradientHessianAndParameterJacobianMatchFiniteDifferences) {
-  const MaterialParameters parameters = nonlinear_unit_law();
+void check_thickness_integral_derivatives(const MaterialParameters& parameters) {
   const MaterialLaw law(parameters);
   const GaussLegendreRule rule = GaussLegendreRule::make(3);
   const double tau = parameters.thickness_m;
@@ -336,26 +353,58 @@ TEST(ThicknessIntegral, GradientHessianAndParameterJacobianMatchFiniteDifference
     };
     const std::string name = parameters.parameter_names()[static_cast<size_t>(column)];
     // Linear in the stiffnesses and μ's (exact differences up to round-off); nonlinear in τ
-    // (τ moves the through-thickness points: kept off the box faces) and the α's.
+    // and the bending ratios (they move the through-thickness points: kept off the box faces)
+    // and the α's.
     const bool alpha = name.find(".alpha[") != std::string::npos;
     const double h0 = (alpha ? 0.4 : 1e-2) * std::abs(k0[column]);
-    if (column == FlatLayout::kThickness)
+    const VectorXd unit = VectorXd::Unit(k0.size(), column);
+    if (moves_law_arguments(parameters, column))
       for (double sign : {-1.0, 1.0}) {
         MaterialParameters moved = parameters;
-        moved.thickness_m += sign * h0;
-        ASSERT_EQ(box_sides(moved, rule, e), box_sides(parameters, rule, e));
+        moved.set_from_flat(k0 + sign * h0 * unit);
+        ASSERT_EQ(box_sides(moved, rule, e), box_sides(parameters, rule, e)) << name;
       }
-    const VectorXd unit = VectorXd::Unit(k0.size(), column);
     const auto check = check_directional_derivative(gradient_at, k0, unit, dk.col(column), h0);
     EXPECT_TRUE(check.ok) << name << ": " << check.report;
-    if (alpha || column == FlatLayout::kThickness) {
+    if (alpha || moves_law_arguments(parameters, column)) {
       EXPECT_FALSE(check.roundoff_only) << name << ": " << check.report;
     }
   }
 }
 
-TEST(KirchhoffLovePoint, GradientHessianAndParameterJacobianMatchFiniteDifferences) {
-  const MaterialParameters parameters = nonlinear_unit_law();
+TEST(ThicknessIntegral, GradientHessianAndParameterJacobianMatchFiniteDifferences) {
+  for (const MaterialParameters& parameters : {nonlinear_unit_law(), anisotropic_unit_law()}) {
+    SCOPED_TRACE("bending ratios " + std::to_string(parameters.bending_warp_ratio) + ", " +
+                 std::to_string(parameters.bending_weft_ratio));
+    check_thickness_integral_derivatives(parameters);
+  }
+}
+
+TEST(ThicknessIntegral, BendingRatiosScaleTheSmallCurvatureStiffnessBySCS) {
+  // StVK: W = τ ψ(e_m) + τ³/24 (S e_b)ᵀ C (S e_b) exactly (docs/effects/bending-anisotropy.md),
+  // so pure warp, weft and twist curvatures cost b_w, b_f and √(b_w b_f) times the paper's.
+  MaterialParameters p = stvk_unit_law();
+  p.bending_warp_ratio = 4.0;
+  p.bending_weft_ratio = 0.25;
+  const double tau = p.thickness_m;
+  const Vector3d factor(p.bending_warp_ratio, p.bending_weft_ratio,
+                        std::sqrt(p.bending_warp_ratio * p.bending_weft_ratio));
+  const GaussLegendreRule rule = GaussLegendreRule::make(2);
+  for (int i = 0; i < 3; ++i) {
+    Vector6 e = Vector6::Zero();
+    e[3 + i] = 0.3;  // [1/m]
+    const double paper = thickness_integral(MaterialLaw(stvk_unit_law()), tau, rule, e, nullptr, nullptr);
+    const double scaled = thickness_integral(MaterialLaw(p), tau, rule, e, nullptr, nullptr);
+    EXPECT_NEAR(scaled, factor[i] * paper, 1e-15 * scaled) << "component " << i;
+  }
+  // The membrane is untouched.
+  Vector6 membrane = Vector6::Zero();
+  membrane.head<3>() << 0.05, -0.02, 0.03;
+  EXPECT_EQ(thickness_integral(MaterialLaw(p), tau, rule, membrane, nullptr, nullptr),
+            thickness_integral(MaterialLaw(stvk_unit_law()), tau, rule, membrane, nullptr, nullptr));
+}
+
+void check_point_derivatives(const MaterialParameters& parameters) {
   const MaterialLaw law(parameters);
   const GaussLegendreRule rule = GaussLegendreRule::make(3);
   const double tau = parameters.thickness_m;
@@ -406,21 +455,31 @@ TEST(KirchhoffLovePoint, GradientHessianAndParameterJacobianMatchFiniteDifferenc
     };
     const std::string name = parameters.parameter_names()[static_cast<size_t>(column)];
     // Linear in the stiffnesses and μ's (exact differences up to round-off); nonlinear in τ
-    // (τ moves the through-thickness points: kept off the box faces) and the α's.
+    // and the bending ratios (they move the through-thickness points: kept off the box faces)
+    // and the α's.
     const bool alpha = name.find(".alpha[") != std::string::npos;
     const double h0 = (alpha ? 0.4 : 1e-2) * std::abs(k0[column]);
-    if (column == FlatLayout::kThickness)
+    const VectorXd unit = VectorXd::Unit(k0.size(), column);
+    if (moves_law_arguments(parameters, column))
       for (double sign : {-1.0, 1.0}) {
         MaterialParameters moved = parameters;
-        moved.thickness_m += sign * h0;
-        ASSERT_EQ(box_sides(moved, rule, orthotropic_of(ref, y)), box_sides(parameters, rule, orthotropic_of(ref, y)));
+        moved.set_from_flat(k0 + sign * h0 * unit);
+        ASSERT_EQ(box_sides(moved, rule, orthotropic_of(ref, y)), box_sides(parameters, rule, orthotropic_of(ref, y)))
+            << name;
       }
-    const VectorXd unit = VectorXd::Unit(k0.size(), column);
     const auto check = check_directional_derivative(gradient_at, k0, unit, dk.col(column), h0);
     EXPECT_TRUE(check.ok) << name << ": " << check.report;
-    if (alpha || column == FlatLayout::kThickness) {
+    if (alpha || moves_law_arguments(parameters, column)) {
       EXPECT_FALSE(check.roundoff_only) << name << ": " << check.report;
     }
+  }
+}
+
+TEST(KirchhoffLovePoint, GradientHessianAndParameterJacobianMatchFiniteDifferences) {
+  for (const MaterialParameters& parameters : {nonlinear_unit_law(), anisotropic_unit_law()}) {
+    SCOPED_TRACE("bending ratios " + std::to_string(parameters.bending_warp_ratio) + ", " +
+                 std::to_string(parameters.bending_weft_ratio));
+    check_point_derivatives(parameters);
   }
 }
 

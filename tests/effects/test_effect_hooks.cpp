@@ -19,14 +19,6 @@ namespace {
 
 using namespace twill::testing;
 
-
-// The paper's model: a12 tied to ½ min(a11, a22) (paper §5.2).
-MaterialParameters paper_material() {
-  MaterialParameters k = poplin();
-  k.a12_Pa = MaterialParameters::tied_a12(k.a11_Pa, k.a22_Pa);
-  return k;
-}
-
 // Effect parameters away from their neutral defaults so that every hook acts: each double
 // option at default + 2 % of its range (inside the bounds for every registered effect).
 ComponentChoice acting(const std::string& effect) {

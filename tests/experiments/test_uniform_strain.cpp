@@ -166,14 +166,14 @@ TEST_P(UniformStrainDerivatives, ParameterDerivativesConvergeAtSecondOrder) {
     }
   }
   // A column passes either with second-order convergence or, where F is linear in k_j
-  // (thickness; μ; a11 on the warp axis) or independent of it (density; a curve whose strain
-  // lies in the quadratic compression extrapolation of §3.2), by agreeing with the differences
-  // to round-off at every step. So that the test cannot pass on zeros, the curve of the
+  // (thickness; μ; a11 on the warp axis) or independent of it (density; the bending ratios: the
+  // strip does not bend; a curve whose strain lies in the quadratic compression extrapolation
+  // of §3.2), by agreeing with the differences to round-off at every step. So that the test cannot pass on zeros, the curve of the
   // loaded direction must have a real sensitivity: |∂F/∂k_j|·|k_j| ≥ 1e-4 max F.
   const FlatLayout layout(k);
   const std::string curve_name = c.loaded_curve;
   const int first = curve_name == "eta1" ? layout.eta1 : curve_name == "eta3" ? layout.eta3 : layout.eta4;
-  const int last = curve_name == "eta1" ? layout.eta3 : curve_name == "eta3" ? layout.eta4 : n;
+  const int last = curve_name == "eta1" ? layout.eta3 : curve_name == "eta3" ? layout.eta4 : layout.bending;
   for (int j = first; j < last; ++j)
     EXPECT_GE(dforce.col(j).cwiseAbs().maxCoeff() * std::abs(flat[j]),
               1e-4 * forces.cwiseAbs().maxCoeff())

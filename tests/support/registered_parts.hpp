@@ -54,6 +54,13 @@ inline MaterialParameters poplin() {
   return read_params_file(std::string(TWILL_SHARED_DIR) + "/data/reference/poplin/params.yaml");
 }
 
+/// The paper's model of poplin: a12 tied to ½ min(a11, a22) (paper §5.2).
+inline MaterialParameters paper_material() {
+  MaterialParameters k = poplin();
+  k.a12_Pa = MaterialParameters::tied_a12(k.a11_Pa, k.a22_Pa);
+  return k;
+}
+
 /// A small run of an experiment, by the quantity it schedules. An experiment scheduling a
 /// quantity not listed here fails the registry-driven tests until one is added.
 struct SmallRun {
