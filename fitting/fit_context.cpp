@@ -216,6 +216,13 @@ std::shared_ptr<Experiment> FitContext::tensile_experiment(const RunData& d, int
                            config_.tensile_experiment.options, input);
 }
 
+std::shared_ptr<Experiment> FitContext::bend_experiment(const BendTest& b, const MaterialParameters& p) const {
+  ExperimentInput input = experiment_input(b.label, b.angle_deg, b.width_mm, 0, 0, p);
+  input.schedule = {mean(b.overhang_mm)};
+  input.measured = Eigen::VectorXd::Constant(1, b.chord_angle_deg);
+  return create_experiment(registry_, config_.bend_experiment, input);
+}
+
 std::shared_ptr<Predictor> FitContext::uniform_strain_predictor(const RunData& d) const {
   return std::make_shared<UniformStrainPredictor>(run_label(d), setup_for(*d.test, 0), d.extension_mm, d.force_N);
 }

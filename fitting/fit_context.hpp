@@ -132,6 +132,9 @@ class FitContext {
   /// registered experiment with the same options, e.g. tensile-lateral) predicting d.force_N.
   std::shared_ptr<Experiment> tensile_experiment(const RunData& d, int level, const MaterialParameters& p,
                                                  const std::string& name = "") const;
+  /// A bend test's experiment from `p` at the mean measured overhang (config experiments.bend,
+  /// its cells its own), predicting the measured chord angle.
+  std::shared_ptr<Experiment> bend_experiment(const BendTest& b, const MaterialParameters& p) const;
   /// A fit run's uniform-strain predictor (paper §5.3; the strip's cells do not matter to it).
   std::shared_ptr<Predictor> uniform_strain_predictor(const RunData& d) const;
   /// The config's optimiser (or `choice`) with the stages' limits (`refine`: a ladder refit's).

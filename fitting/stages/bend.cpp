@@ -47,7 +47,7 @@ class BendStage final : public FitStage {
     }
     const auto t = Clock::now();
     std::vector<std::shared_ptr<Predictor>> predictors;
-    for (const BendTest& b : context.dataset().bend) predictors.push_back(experiment(context, b));
+    for (const BendTest& b : context.dataset().bend) predictors.push_back(context.bend_experiment(b, context.params));
     ParameterMap::Options map_options;
     map_options.rescale_with_thickness = true;
     MaterialParameters& params = context.params;
@@ -82,7 +82,7 @@ class BendStage final : public FitStage {
                                    const Eigen::VectorXd& x) {
     if (std::isfinite(objective.evaluate(x, nullptr))) return objective;
     std::vector<std::shared_ptr<Predictor>> fresh;
-    for (const BendTest& b : context.dataset().bend) fresh.push_back(experiment(context, b));
+    for (const BendTest& b : context.dataset().bend) fresh.push_back(context.bend_experiment(b, context.params));
     fresh_objective_ = std::make_unique<FitObjective>(map, fresh);
     if (!std::isfinite(fresh_objective_->evaluate(x, nullptr)))
       throw std::runtime_error("bend stage: the optimiser's final thickness could not be evaluated: " +
@@ -101,15 +101,6 @@ class BendStage final : public FitStage {
              : "";
   }
 
-  /// A bend test's experiment at the mean measured overhang (config experiments.bend, its cells
-  /// its own), predicting the measured chord angle.
-  static std::shared_ptr<Experiment> experiment(const FitContext& context, const BendTest& b) {
-    ExperimentInput input = context.experiment_input(b.label, b.angle_deg, b.width_mm, 0, 0, context.params);
-    input.schedule = {mean(b.overhang_mm)};
-    input.measured = Eigen::VectorXd::Constant(1, b.chord_angle_deg);
-    return create_experiment(context.registry(), context.config().bend_experiment, input);
-  }
-
   FitBend result(const FitContext& context, const BendTest& b, double chord_angle_deg) const {
     FitBend fb;
     fb.label = b.label;
@@ -118,7 +109,7 @@ class BendStage final : public FitStage {
     fb.chord_angle_deg = chord_angle_deg;
     if (!options_.find_overhang) return fb;
     // A fresh experiment at the final parameters (the fitted one's states are the last trial's).
-    const std::shared_ptr<Predictor> fresh = experiment(context, b);
+    const std::shared_ptr<Predictor> fresh = context.bend_experiment(b, context.params);
     if (CantileverPredictor* c = cantilever(fresh)) {
       const OverhangSearchResult s = c->experiment().find_overhang(b.chord_angle_deg);
       if (s.converged) fb.overhang_mm = s.overhang_mm;

@@ -7,7 +7,8 @@
 // nothing (its timing row reads 0 s) when the config's `effects` does not name its effect, so
 // the paper's protocol carries them inactive.
 //
-// Data: every fit tensile run, its whole path in file order (`rows: path`, loading then
+// Data: the bend tests' chord angles (`observable: chord_angle_deg`; the curves are then not
+// free, the thickness stays the bend stage's), or every fit tensile run, its whole path in file order (`rows: path`, loading then
 // unloading, FitContext's measured_path) or its loading branch (`rows: loading`), each run with
 // its clock (rate_mm_min, time_s) for rate effects.
 #include <fmt/format.h>
@@ -47,9 +48,10 @@ OptionBindings<EffectFitOptions> effect_fit_bindings() {
   return {text_option<S>("effect", &S::effect, "the registered effect whose parameters it fits (twill list effect)"),
           choice_option<S>("rows", &S::rows, {"path", "loading"},
                            "the runs' rows: the whole path (loading, then unloading) or the loading branch"),
-          choice_option<S>("observable", &S::observable, {"force_N", "lateral_strain", "both"},
+          choice_option<S>("observable", &S::observable, {"force_N", "lateral_strain", "both", "chord_angle_deg"},
                            "what it fits: the clamp forces, the lateral strains (of runs with a lateral_strain "
-                           "column, rows above data.min_force_fraction of the run's largest |lateral strain|), or both"),
+                           "column, rows above data.min_force_fraction of the run's largest |lateral strain|), both, "
+                           "or the bend tests' chord angles (the curves are then not free)"),
           integer_option<S>("level", &S::level, "resolution level (-1: the finest any stage before it reached)",
                             in_range(kFinestSoFar, 4)),
           bool_option<S>("with_curves", &S::with_curves,
@@ -90,13 +92,15 @@ class EffectFit final : public FitStage {
     std::vector<std::shared_ptr<Predictor>> predictors;
     for (const RunData& d : runs_) predictors.push_back(experiment(context, d, level));
     for (const RunData& d : lateral_runs_) predictors.push_back(lateral_experiment(context, d, level));
+    if (bends())
+      for (const BendTest& b : context.dataset().bend) predictors.push_back(context.bend_experiment(b, context.params));
     if (predictors.empty())
-      throw std::runtime_error("effect-fit " + options_.effect + ": no fit run has " + options_.observable + " data");
+      throw std::runtime_error("effect-fit " + options_.effect + ": the dataset has no " + options_.observable + " data");
     const std::vector<EffectParameter> parameters = effect_parameters({*configured}, context.registry());
     std::vector<std::string> free;
     for (const EffectParameter& p : parameters) free.push_back(p.name);
     const std::vector<std::string> effect_free = free;
-    if (options_.with_curves)
+    if (options_.with_curves && !bends())
       for (const CurveStage& c : context.fitted_curves)
         for (const std::string& name : c.free_parameters()) free.push_back(name);
     ParameterMap::Options map_options;
@@ -105,7 +109,7 @@ class EffectFit final : public FitStage {
     FitEffect result;
     result.effect = options_.effect;
     result.resolution = resolution_at(context, level);
-    result.runs = static_cast<int>(runs_.size() + lateral_runs_.size());
+    result.runs = static_cast<int>(predictors.size());
     result.error_without = error_at_neutral(context, *configured, effect_free, map_options, predictors);
 
     ParameterMap map(context.params, free, map_options);
@@ -137,8 +141,9 @@ class EffectFit final : public FitStage {
   std::deque<RunData> runs_;          ///< runs whose forces it fits (stable addresses)
   std::deque<RunData> lateral_runs_;  ///< runs whose lateral strains it fits
 
-  bool forces() const { return options_.observable != "lateral_strain"; }
-  bool laterals() const { return options_.observable != "force_N"; }
+  bool bends() const { return options_.observable == "chord_angle_deg"; }
+  bool forces() const { return options_.observable == "force_N" || options_.observable == "both"; }
+  bool laterals() const { return options_.observable == "lateral_strain" || options_.observable == "both"; }
 
   // The runs whose forces it fits (runs_) and those whose lateral strains it fits.
   void select_runs(const FitContext& context) {
@@ -197,6 +202,11 @@ class EffectFit final : public FitStage {
   }
 
   std::string resolution_at(const FitContext& context, int level) const {
+    if (bends()) {
+      const Options& bend = context.config().bend_experiment.options;
+      return FitContext::resolution_text(static_cast<int>(bend.get_int("cells_across")),
+                                         static_cast<int>(bend.get_int("cells_along")));
+    }
     const TensileSetup s = context.setup_for(runs_.empty() ? *lateral_runs_.front().test : *runs_.front().test, level);
     return FitContext::resolution_text(s.cells_across, s.cells_along);
   }
