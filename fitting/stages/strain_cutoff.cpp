@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "core/option_binding.hpp"
+#include "effects/effect_experiment.hpp"
 #include "fitting/fit_context.hpp"
 #include "fitting/fit_stage.hpp"
 #include "fitting/stages/stage_kinds.hpp"
@@ -81,10 +82,13 @@ class StrainCutoff final : public FitStage {
     return schedule;
   }
 
+  // The largest strain component over the stage's runs at the finest level (the model's
+  // law with the effects' law hooks applied, as every experiment of the fit sees it).
   static double largest_simulated_strain(const FitContext& context, const CurveStage& stage) {
+    const MaterialParameters material = law_adjusted(context.params, context.registry());
     double largest = 0;
     for (const RunData* d : context.runs_for(stage.angle_deg)) {
-      TensileExperiment e(context.setup_for(*d->test, context.levels() - 1), context.discretization(), context.params,
+      TensileExperiment e(context.setup_for(*d->test, context.levels() - 1), context.discretization(), material,
                           context.solver());
       Eigen::VectorXd last;
       const TensileCurve c = e.run(strain_sample_schedule(d->extension_mm),
