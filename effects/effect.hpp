@@ -131,6 +131,15 @@ void set_effect_parameters(const Eigen::VectorXd& values, const Registry& regist
 /// a dimensionless name ending in _ratio or _strain; empty when the name has no '_'.
 std::string unit_of(const std::string& name);
 
+/// Whether some tensile run of `dataset` satisfies `has` (the data predicates' common form).
+template <class Predicate>
+bool any_tensile_run(const Dataset& dataset, Predicate has) {
+  for (const TensileTest& test : dataset.tensile)
+    for (const TensileRun& run : test.runs)
+      if (has(test, run)) return true;
+  return false;
+}
+
 /// The flat index (parameters.hpp) of the effect parameter "<effect>.<option>" of k.
 int effect_flat_index(const MaterialParameters& k, const std::string& effect, const std::string& option);
 

@@ -36,15 +36,8 @@ EffectExperiment::EffectExperiment(std::unique_ptr<Experiment> inner, const Regi
 
 EffectExperiment::Adjusted EffectExperiment::adjust(const MaterialParameters& k, bool with_jacobian) const {
   Adjusted a;
-  a.material = k;
-  const Eigen::Index n = k.flat_size();
-  if (with_jacobian) a.jacobian = Eigen::MatrixXd::Identity(n, n);
   a.effects = instantiate_effects(k, registry_);
-  for (const auto& effect : a.effects) {
-    Eigen::MatrixXd step;
-    a.material = effect->adjusted_material(a.material, with_jacobian ? &step : nullptr);
-    if (with_jacobian) a.jacobian = step * a.jacobian;
-  }
+  a.material = apply_law_hooks(a.effects, k, with_jacobian ? &a.jacobian : nullptr);
   return a;
 }
 
@@ -145,10 +138,20 @@ Experiment& innermost(Experiment& experiment) {
   return wrapper ? innermost(wrapper->inner()) : experiment;
 }
 
-MaterialParameters law_adjusted(const MaterialParameters& k, const Registry& registry) {
+MaterialParameters apply_law_hooks(const std::vector<std::unique_ptr<Effect>>& effects, const MaterialParameters& k,
+                                   Eigen::MatrixXd* jacobian) {
   MaterialParameters adjusted = k;
-  for (const auto& effect : instantiate_effects(k, registry)) adjusted = effect->adjusted_material(adjusted, nullptr);
+  if (jacobian) jacobian->setIdentity(k.flat_size(), k.flat_size());
+  for (const auto& effect : effects) {
+    Eigen::MatrixXd step;
+    adjusted = effect->adjusted_material(adjusted, jacobian ? &step : nullptr);
+    if (jacobian) *jacobian = step * *jacobian;
+  }
   return adjusted;
+}
+
+MaterialParameters law_adjusted(const MaterialParameters& k, const Registry& registry) {
+  return apply_law_hooks(instantiate_effects(k, registry), k);
 }
 
 }  // namespace twill

@@ -82,8 +82,12 @@ std::vector<std::unique_ptr<Effect>> instantiate_effects(const MaterialParameter
 /// The experiment inside any effect wrappers (e.g. to reach a CantileverPredictor's search).
 Experiment& innermost(Experiment& experiment);
 
-/// The material with every effect's law hook applied (k' above), for code that simulates
-/// without an experiment (e.g. the uniform-strain predictor).
+/// k' = the law hooks of `effects` applied to k in order, with J = ∂k'/∂k (their chained
+/// Jacobians) when `jacobian` is given.
+MaterialParameters apply_law_hooks(const std::vector<std::unique_ptr<Effect>>& effects, const MaterialParameters& k,
+                                   Eigen::MatrixXd* jacobian = nullptr);
+/// The material with every effect of k.effects' law hook applied (k' above), for code that
+/// simulates without an experiment (the strain cutoffs, the strip curves).
 MaterialParameters law_adjusted(const MaterialParameters& k, const Registry& registry);
 
 }  // namespace twill

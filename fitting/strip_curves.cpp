@@ -56,8 +56,8 @@ std::vector<std::optional<StripCurves::Simulated>> StripCurves::simulate(const F
   }
   // The model's effects (effects/effect_experiment.hpp): the law hooks before the strips
   // simulate, the observable hooks added to each request's forces below.
-  const MaterialParameters adjusted = law_adjusted(context.params, context.registry());
   const auto effects = instantiate_effects(context.params, context.registry());
+  const MaterialParameters adjusted = apply_law_hooks(effects, context.params);
   tbb::parallel_for(size_t{0}, groups.size(), [&](size_t i) {
     Group& g = groups[i];
     TensileSetup setup = context.setup_for(*g.test, level);

@@ -57,9 +57,7 @@ bool HysteresisOptions::validate(std::string* error) const { return check_option
 Hysteresis::Hysteresis(const HysteresisOptions& options) : options_(options) { require_valid(options, kName); }
 
 std::string Hysteresis::missing_data(const Dataset& dataset) const {
-  for (const TensileTest& test : dataset.tensile)
-    for (const TensileRun& run : test.runs)
-      if (run.has_unloading) return "";
+  if (any_tensile_run(dataset, [](const TensileTest&, const TensileRun& run) { return run.has_unloading; })) return "";
   return "needs a tensile run that goes up and comes back down (unloading rows)";
 }
 

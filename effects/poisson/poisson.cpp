@@ -13,9 +13,8 @@ bool PoissonOptions::validate(std::string* error) const { return check_options(p
 Poisson::Poisson(const PoissonOptions& options) : ratio_(options.coupling_ratio) { require_valid(options, kName); }
 
 std::string Poisson::missing_data(const Dataset& dataset) const {
-  for (const TensileTest& test : dataset.tensile)
-    for (const TensileRun& run : test.runs)
-      if (run.has_lateral_strain()) return "";
+  if (any_tensile_run(dataset, [](const TensileTest&, const TensileRun& run) { return run.has_lateral_strain(); }))
+    return "";
   return "needs lateral strain: a lateral_strain column in some tensile run (video extensometer or DIC)";
 }
 

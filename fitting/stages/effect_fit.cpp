@@ -86,12 +86,14 @@ class EffectFit final : public FitStage {
     const auto configured = std::find_if(context.params.effects.begin(), context.params.effects.end(),
                                          [&](const ComponentChoice& c) { return c.name == options_.effect; });
     if (configured == context.params.effects.end()) return;  // inactive: the config does not name the effect
+    const auto index = static_cast<size_t>(configured - context.params.effects.begin());  // params is replaced below
     const auto t = Clock::now();
     const int level = options_.level == kFinestSoFar ? context.finest_level : std::min(options_.level, context.levels() - 1);
     select_runs(context);
     std::vector<std::shared_ptr<Predictor>> predictors;
-    for (const RunData& d : runs_) predictors.push_back(experiment(context, d, level));
-    for (const RunData& d : lateral_runs_) predictors.push_back(lateral_experiment(context, d, level));
+    for (const RunData& d : runs_) predictors.push_back(context.tensile_experiment(d, level, context.params));
+    for (const RunData& d : lateral_runs_)
+      predictors.push_back(context.tensile_experiment(d, level, context.params, kLateralExperiment));
     if (bends())
       for (const BendTest& b : context.dataset().bend) predictors.push_back(context.bend_experiment(b, context.params));
     if (predictors.empty())
@@ -126,7 +128,7 @@ class EffectFit final : public FitStage {
                                objective.last_failure());
     context.params = map.parameters(r.x);
     result.error_with = mean_run_error(objective, predictors.size());
-    for (const EffectParameter& p : effect_parameters({*find_effect(context)}, context.registry()))
+    for (const EffectParameter& p : effect_parameters({context.params.effects[index]}, context.registry()))
       result.parameters.push_back({p.name, p.unit, p.value, p.lower, p.upper});
     context.record_stage("effect " + options_.effect, result.resolution, 0, result.error_with, *optimizer, r, objective,
                          t);
@@ -161,8 +163,10 @@ class EffectFit final : public FitStage {
     }
   }
 
-  // The rows whose |lateral strain| is at least `fraction` of the run's largest: relative
-  // residuals of the first, near-zero lateral strains would be noise.
+  // The run as its lateral-strain experiment predicts it: the rows whose |lateral strain| is at
+  // least `fraction` of the run's largest (relative residuals of the first, near-zero ones
+  // would be noise), their lateral strains as the measured values (the experiment predicts
+  // d.force_N, FitContext::tensile_experiment).
   static void keep_lateral_rows(double fraction, RunData* d) {
     double largest = 0;
     for (double v : d->lateral_strain) largest = std::max(largest, std::abs(v));
@@ -170,35 +174,15 @@ class EffectFit final : public FitStage {
     kept.extension_mm.clear();
     kept.time_s.clear();
     kept.lateral_strain.clear();
-    std::vector<double> forces;
     for (size_t i = 0; i < d->lateral_strain.size(); ++i) {
       if (!(std::abs(d->lateral_strain[i]) >= fraction * largest && d->lateral_strain[i] != 0)) continue;
       kept.extension_mm.push_back(d->extension_mm[i]);
       if (!d->time_s.empty()) kept.time_s.push_back(d->time_s[i]);
       kept.lateral_strain.push_back(d->lateral_strain[i]);
-      forces.push_back(d->force_N[static_cast<Eigen::Index>(i)]);
     }
-    kept.force_N = Eigen::Map<const Eigen::VectorXd>(forces.data(), static_cast<Eigen::Index>(forces.size()));
+    kept.force_N = Eigen::Map<const Eigen::VectorXd>(kept.lateral_strain.data(),
+                                                     static_cast<Eigen::Index>(kept.lateral_strain.size()));
     *d = std::move(kept);
-  }
-
-  std::shared_ptr<Experiment> experiment(const FitContext& context, const RunData& d, int level) const {
-    return context.tensile_experiment(d, level, context.params);
-  }
-
-  // The run's lateral-strain experiment (the tensile experiment's options), its lateral
-  // strains as the measured values.
-  std::shared_ptr<Experiment> lateral_experiment(const FitContext& context, const RunData& d, int level) const {
-    RunData as_lateral = d;
-    as_lateral.force_N = Eigen::Map<const Eigen::VectorXd>(d.lateral_strain.data(),
-                                                           static_cast<Eigen::Index>(d.lateral_strain.size()));
-    return context.tensile_experiment(as_lateral, level, context.params, kLateralExperiment);
-  }
-
-  const ComponentChoice* find_effect(const FitContext& context) const {
-    for (const ComponentChoice& c : context.params.effects)
-      if (c.name == options_.effect) return &c;
-    return nullptr;
   }
 
   std::string resolution_at(const FitContext& context, int level) const {
