@@ -206,7 +206,8 @@ ExperimentInput FitContext::experiment_input(std::string label, double angle_deg
 std::shared_ptr<Experiment> FitContext::tensile_experiment(const RunData& d, int level, const MaterialParameters& p,
                                                            const std::string& name) const {
   const TensileSetup s = setup_for(*d.test, level);
-  ExperimentInput input = experiment_input(run_label(d), s.angle_deg, s.width_mm, s.cells_across, s.cells_along, p);
+  ExperimentInput input =
+      experiment_input(run_label(d), strip_angle(d), s.width_mm, s.cells_across, s.cells_along, p);
   input.length_mm = s.gauge_length_mm;
   input.schedule = d.extension_mm;
   input.measured = d.force_N;

@@ -37,6 +37,10 @@ struct RunData {
   Eigen::VectorXd force_N;
   std::vector<double> time_s;  ///< of the chosen rows; empty when the run has no clock
   std::vector<double> lateral_strain;  ///< of the chosen rows; empty when the run has none
+  /// The angle the run's strip is simulated at once the misalignment effect-fit has turned it
+  /// (OffsetSearch::turned_angle, docs/effects/misalignment.md); the test's nominal angle
+  /// while empty.
+  std::optional<double> strip_angle_deg;
 };
 RunData measured_points(const TensileTest& test, const TensileRun& run, const FitDataSelection& data);
 /// As measured_points, but the whole path in file order: the loading branch's points, then
@@ -116,6 +120,8 @@ class FitContext {
   TensileSetup setup_for(const TensileTest& test, int level) const;
   int levels() const { return config_.resolution.levels; }
   static std::string run_label(const RunData& d) { return d.test->label + " " + d.run->name(); }
+  /// The angle the run's strip is simulated at (RunData::strip_angle_deg, else nominal).
+  static double strip_angle(const RunData& d) { return d.strip_angle_deg.value_or(d.test->angle_deg); }
   /// What the effects' observable hooks see of a run's strip at `angle_deg` (its schedule,
   /// geometry and clock).
   static RunConditions run_conditions(const RunData& d, double angle_deg);

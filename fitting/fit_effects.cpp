@@ -40,9 +40,16 @@ std::vector<ComponentChoice> estimate_effects(FitContext& context, const std::ve
     if (is_angle_offset(*context.effects[i]) && !validation.empty()) {
       std::vector<Eigen::VectorXd> offsets;
       for (const FitCurve& c : validation) offsets.push_back(Eigen::VectorXd::Constant(1, c.delta_theta_deg));
+      int turned_fit_runs = 0;
+      for (const RunData& d : context.fit_runs)
+        if (d.strip_angle_deg) {
+          offsets.push_back(Eigen::VectorXd::Constant(1, *d.strip_angle_deg - d.test->angle_deg));
+          ++turned_fit_runs;
+        }
       fitted.options = context.effects[i]->estimated_from_runs(offsets, fitted.options);
-      context.note("effect " + fitted.name + ": estimated from the " + std::to_string(offsets.size()) +
-                   " validation offsets");
+      context.note("effect " + fitted.name + ": estimated from the " + std::to_string(validation.size()) +
+                   " validation offsets and " + std::to_string(turned_fit_runs) +
+                   " fit-run offsets (misalignment effect-fit)");
     } else {
       context.note("effect " + fitted.name + ": parameters " +
                    (fitted == context.config().effects[i] ? "as configured (no stage fitted them)"

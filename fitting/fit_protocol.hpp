@@ -47,7 +47,7 @@ struct FitCurve {
   std::string run;    ///< run name, e.g. "warp-1"
   std::string role;   ///< "fit" or "validation"
   int degree = 0;     ///< degree of the stage's curve (0 for validation)
-  double delta_theta_deg = 0;  ///< validation angle offset (0 for fit curves)
+  double delta_theta_deg = 0;  ///< the strip's angle offset (validation; fit runs the misalignment effect-fit turned)
   double avg_rel_error = 0;    ///< Σ|p̂ − p̆| / Σ|p̆| (model.md §8)
   double avg_rel_error_without_offset = 0;  ///< validation: error at Δθ = 0
   std::vector<double> extension_mm, measured_N, simulated_N;
@@ -134,7 +134,7 @@ struct FitReport {
   std::vector<std::string> notes;  ///< choices made on the way (repeats, cutoffs, degrees)
 };
 
-/// argmin over t of Σ_i |f_i + t d_i − m_i| (the validation offset's linearised step; a
+/// argmin over t of Σ_i |f_i + t d_i − m_i| (the offset search's probe side and gauge; a
 /// weighted median). 0 when every d_i is 0. Exposed for its test.
 double linearised_l1_minimiser(const Eigen::VectorXd& f, const Eigen::VectorXd& d, const Eigen::VectorXd& m);
 

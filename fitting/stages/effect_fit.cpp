@@ -11,15 +11,23 @@
 // free, the thickness stays the bend stage's), or every fit tensile run, its whole path in file order (`rows: path`, loading then
 // unloading, FitContext's measured_path) or its loading branch (`rows: loading`), each run with
 // its clock (rate_mm_min, time_s) for rate effects.
+//
+// An angle-offset effect (misalignment) fits per-run values, not entries of the material's flat
+// vector: its per-run offsets are searched run by run and alternated with the curves'
+// refit (fit_offsets below, `rounds`); its model parameter, the spread, is estimated from them.
+// Its error without is the runs' error at their nominal angles.
 #include <fmt/format.h>
 
 #include <algorithm>
 #include <cmath>
 #include <deque>
+#include <map>
 
 #include "core/option_binding.hpp"
 #include "fitting/fit_context.hpp"
+#include "fitting/fit_effects.hpp"
 #include "fitting/fit_stage.hpp"
+#include "fitting/offset_search.hpp"
 #include "fitting/stages/stage_kinds.hpp"
 
 namespace twill {
@@ -40,6 +48,7 @@ struct EffectFitOptions {
   std::string observable = "force_N";
   int level = kFinestSoFar;
   bool with_curves = true;
+  int rounds = 3;
   bool validate(std::string* error) const;
 };
 
@@ -55,7 +64,14 @@ OptionBindings<EffectFitOptions> effect_fit_bindings() {
           integer_option<S>("level", &S::level, "resolution level (-1: the finest any stage before it reached)",
                             in_range(kFinestSoFar, 4)),
           bool_option<S>("with_curves", &S::with_curves,
-                         "free every fitted tensile-curve stage's stiffness and curve with the effect (false: the law held)")};
+                         "free every fitted tensile-curve stage's stiffness and curve with the effect (false: the law held)"),
+          // Three: warp and weft offsets settle in the first round (the gauge's unconstrained
+          // Δθ²); a stiff-yarn bias converges linearly, measured on poplin-like strips (1°
+          // strip: 0.65, 0.75, 0.90, 1.00° over rounds 2–5; tests/fitting/test_fit_effects.cpp),
+          // and each round costs a joint refit of every curve.
+          integer_option<S>("rounds", &S::rounds,
+                            "angle-offset effects (misalignment): rounds of offset search and curve refit",
+                            in_range(1, 10))};
 }
 
 bool EffectFitOptions::validate(std::string* error) const { return check_options(effect_fit_bindings(), *this, error); }
@@ -87,8 +103,12 @@ class EffectFit final : public FitStage {
                                          [&](const ComponentChoice& c) { return c.name == options_.effect; });
     if (configured == context.params.effects.end()) return;  // inactive: the config does not name the effect
     const auto index = static_cast<size_t>(configured - context.params.effects.begin());  // params is replaced below
-    const auto t = Clock::now();
     const int level = options_.level == kFinestSoFar ? context.finest_level : std::min(options_.level, context.levels() - 1);
+    if (is_angle_offset(*context.effects.at(index))) {
+      fit_offsets(context, index, level, out);
+      return;
+    }
+    const auto t = Clock::now();
     select_runs(context);
     std::vector<std::shared_ptr<Predictor>> predictors;
     for (const RunData& d : runs_) predictors.push_back(context.tensile_experiment(d, level, context.params));
@@ -102,21 +122,54 @@ class EffectFit final : public FitStage {
     std::vector<std::string> free;
     for (const EffectParameter& p : parameters) free.push_back(p.name);
     const std::vector<std::string> effect_free = free;
-    if (options_.with_curves && !bends())
-      for (const CurveStage& c : context.fitted_curves)
-        for (const std::string& name : c.free_parameters()) free.push_back(name);
+    if (options_.with_curves && !bends()) append_curve_parameters(context, &free);
     ParameterMap::Options map_options;
     map_options.ranges = ranges_of(parameters);
 
+    FitEffect result = effect_record(context, level, predictors);
+    result.error_without = error_at_neutral(context, *configured, effect_free, map_options, predictors);
+    result.error_with = fit_free(context, free, map_options, predictors, result.resolution, t);
+    for (const EffectParameter& p : effect_parameters({context.params.effects[index]}, context.registry()))
+      result.parameters.push_back({p.name, p.unit, p.value, p.lower, p.upper});
+    finish(context, std::move(result), out);
+  }
+
+ private:
+  EffectFitOptions options_;
+  std::deque<RunData> runs_;          ///< runs whose forces it fits (stable addresses)
+  std::deque<RunData> lateral_runs_;  ///< runs whose lateral strains it fits
+
+  bool bends() const { return options_.observable == "chord_angle_deg"; }
+
+  static void append_curve_parameters(const FitContext& context, std::vector<std::string>* free) {
+    for (const CurveStage& c : context.fitted_curves)
+      for (const std::string& name : c.free_parameters()) free->push_back(name);
+  }
+
+  FitEffect effect_record(const FitContext& context, int level,
+                          const std::vector<std::shared_ptr<Predictor>>& predictors) const {
     FitEffect result;
     result.effect = options_.effect;
     result.resolution = resolution_at(context, level);
     result.runs = static_cast<int>(predictors.size());
-    result.error_without = error_at_neutral(context, *configured, effect_free, map_options, predictors);
+    for (const auto& p : predictors) result.points += static_cast<int>(p->measured().size());
+    return result;
+  }
 
+  void finish(FitContext& context, FitEffect result, FitReport& out) const {
+    context.note(fmt::format("effect {}: error {:.2f} % without it, {:.2f} % with it ({} runs, {} points, {})",
+                             options_.effect, 100 * result.error_without, 100 * result.error_with, result.runs,
+                             result.points, result.resolution));
+    out.effects.push_back(std::move(result));
+  }
+
+  // Fits `free` entries of context.params to `predictors` with the config's optimiser, records
+  // the stage's row and returns the runs' mean error at the optimum.
+  double fit_free(FitContext& context, const std::vector<std::string>& free, const ParameterMap::Options& map_options,
+                  const std::vector<std::shared_ptr<Predictor>>& predictors, const std::string& resolution,
+                  Clock::time_point t) const {
     ParameterMap map(context.params, free, map_options);
     FitObjective objective(map, predictors);
-    for (const auto& p : predictors) result.points += static_cast<int>(p->measured().size());
     objective.set_progress([&](const IterationRecord& it, const Eigen::VectorXd&) {
       context.say(1, fmt::format("  effect {} it {:3d}: eps {:.4e} |g| {:.2e}", options_.effect, it.iteration,
                                  it.value, it.gradient_norm));
@@ -127,23 +180,117 @@ class EffectFit final : public FitStage {
       throw std::runtime_error("effect-fit " + options_.effect + ": the optimiser's final point could not be evaluated: " +
                                objective.last_failure());
     context.params = map.parameters(r.x);
-    result.error_with = mean_run_error(objective, predictors.size());
-    for (const EffectParameter& p : effect_parameters({context.params.effects[index]}, context.registry()))
-      result.parameters.push_back({p.name, p.unit, p.value, p.lower, p.upper});
-    context.record_stage("effect " + options_.effect, result.resolution, 0, result.error_with, *optimizer, r, objective,
-                         t);
-    context.note(fmt::format("effect {}: error {:.2f} % without it, {:.2f} % with it ({} runs, {} points, {})",
-                             options_.effect, 100 * result.error_without, 100 * result.error_with, result.runs,
-                             result.points, result.resolution));
-    out.effects.push_back(std::move(result));
+    const double error = mean_run_error(objective, predictors.size());
+    context.record_stage("effect " + options_.effect, resolution, 0, error, *optimizer, r, objective, t);
+    return error;
   }
 
- private:
-  EffectFitOptions options_;
-  std::deque<RunData> runs_;          ///< runs whose forces it fits (stable addresses)
-  std::deque<RunData> lateral_runs_;  ///< runs whose lateral strains it fits
+  // An angle-offset effect (misalignment, docs/effects/misalignment.md): `rounds` rounds of
+  // (1) every fit run's offset searched with the law held (fitting/offset_search.hpp), put in
+  // the gauge the data leave free (gauge_offsets), the run's strip turned by it, and (2) every
+  // fitted curve stage's stiffness and curve refitted to the turned strips; then the effect's
+  // model parameters estimated from the offsets (Effect::estimated_from_runs).
+  void fit_offsets(FitContext& context, size_t index, int level, FitReport& out) {
+    std::vector<RunData*> runs;
+    for (RunData& d : context.fit_runs) runs.push_back(&d);
+    if (!has_repeats(runs)) {
+      context.note("effect " + options_.effect + ": every fit test has one fit run, whose offset the curve "
+                   "absorbs: fit-run offsets need repeats (repeats.rule=all); the spread comes from the validation "
+                   "offsets alone");
+      return;
+    }
+    const std::vector<const RunData*> fixed(runs.begin(), runs.end());
+    OffsetSearch search(OffsetSearchOptions{}, context.effects[index]);
+    std::vector<std::shared_ptr<Predictor>> predictors;
+    double error_without = 0, error_with = 0;
+    std::string resolution;
+    for (int round = 0; round < options_.rounds; ++round) {
+      const auto t = Clock::now();
+      const auto samples = search.search(context, fixed, level);
+      std::vector<double> offsets, nominal_errors;
+      for (size_t i = 0; i < runs.size(); ++i) {
+        const OffsetSearch::Sample* best = OffsetSearch::best(samples[i]);
+        if (!best)
+          throw std::runtime_error("effect-fit " + options_.effect + ": " + FitContext::run_label(*runs[i]) +
+                                   " did not converge at its nominal angle");
+        offsets.push_back(best->offset_deg);
+        nominal_errors.push_back(OffsetSearch::nominal(samples[i])->error);
+      }
+      if (round == 0) error_without = mean(nominal_errors);
+      gauge_offsets(fixed, samples, &offsets);
+      predictors.clear();
+      for (size_t i = 0; i < runs.size(); ++i) {
+        runs[i]->strip_angle_deg = search.turned_angle(runs[i]->test->angle_deg, offsets[i]);
+        const auto experiment = context.tensile_experiment(*runs[i], level, context.params);
+        if (level == context.finest_level) context.last_predictor[runs[i]] = {level, experiment};
+        predictors.push_back(experiment);
+      }
+      resolution = resolution_at(context, level);
+      std::vector<std::string> free;
+      append_curve_parameters(context, &free);
+      error_with = fit_free(context, free, {}, predictors, resolution, t);
+      report_offsets(context, round, fixed);
+    }
+    FitEffect result = effect_record(context, level, predictors);
+    result.error_without = error_without;
+    result.error_with = error_with;
+    std::vector<Eigen::VectorXd> run_values;
+    for (const RunData* d : fixed) run_values.push_back(Eigen::VectorXd::Constant(1, offset_of(*d)));
+    ComponentChoice& fitted = context.params.effects[index];
+    fitted.options = context.effects[index]->estimated_from_runs(run_values, fitted.options);
+    for (const EffectParameter& p : effect_parameters({fitted}, context.registry()))
+      result.parameters.push_back({p.name, p.unit, p.value, p.lower, p.upper});
+    finish(context, std::move(result), out);
+  }
 
-  bool bends() const { return options_.observable == "chord_angle_deg"; }
+  static double offset_of(const RunData& d) { return FitContext::strip_angle(d) - d.test->angle_deg; }
+
+  static bool has_repeats(const std::vector<RunData*>& runs) {
+    for (const RunData* d : runs)
+      if (std::count_if(runs.begin(), runs.end(), [&](const RunData* e) { return e->test == d->test; }) >= 2)
+        return true;
+    return false;
+  }
+
+  // What the strips' forces cannot fix, fixed by the prior (docs/effects/misalignment.md).
+  // Where a test's forces are nearly even in the offset (OffsetSearch::nearly_even: warp and
+  // weft on the material axes; the bias of a stiff-yarn weave, whose force is smallest at
+  // 45°), F ≈ F0 + c Δθ² and a common shift of v = Δθ² trades against the curve: the smallest
+  // v of the test is set to 0 (paper §6.4's "the strip closest to its target angle", which is
+  // the one with the largest forces on an axis and the smallest on a stiff-yarn bias), v
+  // taken unconstrained (negative for a strip beyond the nominal model, so that one round
+  // puts every strip where the curve refitted to the best-aligned one will see it); the sign
+  // is not identified and the offset reported is |Δθ|. Elsewhere a common offset of the
+  // test's strips trades against the curve: their mean is set to 0 (a cut has no side).
+  static void gauge_offsets(const std::vector<const RunData*>& runs,
+                            const std::vector<std::vector<OffsetSearch::Sample>>& samples,
+                            std::vector<double>* offsets) {
+    std::map<const TensileTest*, std::vector<size_t>> by_test;
+    for (size_t i = 0; i < runs.size(); ++i) by_test[runs[i]->test].push_back(i);
+    for (const auto& [test, members] : by_test) {
+      std::vector<std::vector<OffsetSearch::Sample>> test_samples;
+      for (size_t i : members) test_samples.push_back(samples[i]);
+      if (OffsetSearch::nearly_even(test_samples)) {
+        std::vector<double> v;
+        for (size_t i : members) {
+          const double unconstrained = OffsetSearch::unconstrained_squared_offset(*runs[i], samples[i]);
+          v.push_back(unconstrained < 0 ? unconstrained : (*offsets)[i] * (*offsets)[i]);
+        }
+        const double smallest = *std::min_element(v.begin(), v.end());
+        for (size_t k = 0; k < members.size(); ++k) (*offsets)[members[k]] = std::sqrt(v[k] - smallest);
+      } else {
+        double sum = 0;
+        for (size_t i : members) sum += (*offsets)[i];
+        for (size_t i : members) (*offsets)[i] -= sum / static_cast<double>(members.size());
+      }
+    }
+  }
+
+  void report_offsets(FitContext& context, int round, const std::vector<const RunData*>& runs) const {
+    std::string line;
+    for (const RunData* d : runs) line += fmt::format("{}{} {:+.2f}", line.empty() ? "" : ", ", d->run->name(), offset_of(*d));
+    context.say(0, fmt::format("effect {} round {}: offsets (deg) {}", options_.effect, round + 1, line));
+  }
   bool forces() const { return options_.observable == "force_N" || options_.observable == "both"; }
   bool laterals() const { return options_.observable == "lateral_strain" || options_.observable == "both"; }
 
@@ -155,6 +302,7 @@ class EffectFit final : public FitStage {
     for (const RunData& d : context.fit_runs) {
       RunData rows = options_.rows == "path" ? measured_path(*d.test, *d.run, data)
                                              : measured_points(*d.test, *d.run, data);
+      rows.strip_angle_deg = d.strip_angle_deg;
       if (forces()) runs_.push_back(rows);
       if (laterals() && d.run->has_lateral_strain()) {
         keep_lateral_rows(data.min_force_fraction, &rows);
@@ -191,7 +339,9 @@ class EffectFit final : public FitStage {
       return FitContext::resolution_text(static_cast<int>(bend.get_int("cells_across")),
                                          static_cast<int>(bend.get_int("cells_along")));
     }
-    const TensileSetup s = context.setup_for(runs_.empty() ? *lateral_runs_.front().test : *runs_.front().test, level);
+    const RunData& d = !runs_.empty() ? runs_.front() : !lateral_runs_.empty() ? lateral_runs_.front()
+                                                                                : context.fit_runs.front();
+    const TensileSetup s = context.setup_for(*d.test, level);
     return FitContext::resolution_text(s.cells_across, s.cells_along);
   }
 

@@ -45,6 +45,7 @@ class FinalCurves final : public FitStage {
         continue;
       }
       FitCurve c = FitContext::curve_record(d, "fit", *forces[r]);
+      c.delta_theta_deg = FitContext::strip_angle(d) - d.test->angle_deg;
       if (const CurveStage* stage = context.fitted_curve_at(d.test->angle_deg))
         c.degree = (context.params.*(stage->term->curve_member)).degree();
       out.fit.push_back(c);
@@ -60,7 +61,7 @@ class FinalCurves final : public FitStage {
     std::vector<std::shared_ptr<Experiment>> warm(n);
     for (size_t r = 0; r < n; ++r) {
       const RunData& d = context.fit_runs[r];
-      requests.push_back({&d, d.test->angle_deg});
+      requests.push_back({&d, FitContext::strip_angle(d)});
       const auto last = context.last_predictor.find(&d);
       if (options_.warm_start && last != context.last_predictor.end() && last->second.first == context.finest_level)
         warm[r] = last->second.second;

@@ -29,7 +29,21 @@ COMPARED = {
     "hysteresis": [("hysteresis.warp_friction_N_m", "warp_friction_N_m", "warp"),
                    ("hysteresis.weft_friction_N_m", "weft_friction_N_m", "weft")],
     "rate-dependence": [],
+    # a dimensionless ratio of the law: the specimen scale multiplies forces, not strains
+    "poisson": [("poisson.coupling_ratio", "coupling_ratio", None)],
+    # against the RMS of the offsets drawn for the fitted strips (drawn_spread), not the law's sd
+    "misalignment": [("misalignment.spread_deg", "spread_deg", None)],
 }
+# Overrides an effect needs to be fitted at all: misalignment's offsets are per fit run, so
+# every repeat must be in the objective.
+EFFECT_OVERRIDES = {"misalignment": ["repeats.rule=all"]}
+
+
+def drawn_spread(truth, report):
+    """RMS of the offsets drawn for the strips the fit used."""
+    used = {c["run"] for c in report["fit"]}
+    offsets = [r["offset_deg"] for r in truth["runs"] if os.path.splitext(os.path.basename(r["run"]))[0] in used]
+    return (sum(o * o for o in offsets) / len(offsets)) ** 0.5 if offsets else float("nan")
 
 
 def run(cmd, log):
@@ -84,7 +98,7 @@ def main():
                     ok = run([sys.executable, os.path.join(HERE, "synthesize.py"), spec, "-o", data, "--twill",
                               args.twill, "--seed", str(seed)], data + ".log")
                     cmd = [args.twill, "fit", data, "-o", fit, "--quiet", "--set", f"effects=[{effect}]"]
-                    for o in args.overrides:
+                    for o in args.overrides + EFFECT_OVERRIDES.get(effect, []):
                         cmd += ["--set", o]
                     if not (ok and run(cmd, fit + ".log")):
                         continue
@@ -96,11 +110,15 @@ def main():
                         truth = yaml.safe_load(f)
                     row["recovery"] = {}
                     for name, key, label in COMPARED.get(effect, []):
-                        expected = truth["effect"][key] * mean_scale(truth, report, label)
+                        if effect == "misalignment":
+                            expected = drawn_spread(truth, report)
+                        else:
+                            expected = truth["effect"][key] * (mean_scale(truth, report, label) if label else 1.0)
                         row["recovery"][name] = {"fitted": row["parameters"][name], "expected": expected,
                                                  "relative": row["parameters"][name] / expected - 1}
                 else:
-                    row.update(floor=e["error_without"], null_with=e["error_with"])
+                    row.update(floor=e["error_without"], null_with=e["error_with"],
+                               null_parameters={p["name"]: p["value"] for p in e["parameters"]})
             rows.append(row)
             print(json.dumps(row), flush=True)
     with open(os.path.join(args.out, "summary.json"), "w") as f:

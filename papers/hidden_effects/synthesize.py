@@ -14,7 +14,8 @@ effect library (effects/), so that fitting them back is not circular:
   rate-dependence  two Maxwell branches (a two-term Prony series: beta_i, tau_i) per mode
                    (twill's library: one branch);
   misalignment     per-run angle offsets drawn uniformly from [-sqrt(3) s, sqrt(3) s] (sd s)
-                   (twill's library: normal with spread s);
+                   (twill's library: normal with spread s); the effect's spread_deg replaces
+                   the spec's misalignment_deg (which every strip gets otherwise);
   poisson          a12 = r min(a11, a22) set in the truth's params, lateral strain columns.
 
 Both path laws act on the strip path of docs/effects/strip_path.md (a lumped element in
@@ -27,7 +28,7 @@ contract's format (docs/dataset-format.md), and DIR/truth.yaml with everything d
 Spec keys (unknown keys are an error naming the key):
   name, truth (a params.yaml, or a truth file with a `params:` block; relative to the spec),
   seed, resolution ("16x24"), discretization, scatter, misalignment_deg, noise_N,
-  noise_relative, lateral_strain (bool), tests (list of {label, angle_deg, max_mm, step_mm,
+  noise_relative, lateral_strain (bool), noise_lateral (sd of the lateral strains' noise), tests (list of {label, angle_deg, max_mm, step_mm,
   unload_to_mm (0: no unloading), repeats, rates_mm_min (list), role}),
   effect ({name, ...law parameters}; absent: none hidden).
 """
@@ -41,12 +42,13 @@ import sys
 import yaml
 
 SPEC_KEYS = {"name", "truth", "seed", "resolution", "discretization", "scatter", "misalignment_deg", "noise_N",
-             "noise_relative", "lateral_strain", "tests", "effect", "bend"}
+             "noise_relative", "lateral_strain", "noise_lateral", "tests", "effect", "bend"}
 TEST_KEYS = {"label", "angle_deg", "max_mm", "step_mm", "unload_to_mm", "repeats", "rates_mm_min", "role"}
 EFFECT_KEYS = {
     "hysteresis": {"name", "warp_friction_N_m", "weft_friction_N_m", "shear_friction_N_m", "yield_strain", "sliders"},
     "rate-dependence": {"name", "ratios", "relaxation_s"},
     "poisson": {"name", "coupling_ratio"},
+    "misalignment": {"name", "spread_deg"},
     "none": {"name"},
 }
 SECONDS_PER_MINUTE = 60.0
@@ -180,7 +182,8 @@ def main():
     params_path = os.path.join(args.out, "truth-params.yaml")
     with open(params_path, "w") as f:
         yaml.safe_dump(params, f, sort_keys=False)
-    spread = spec.get("misalignment_deg", 0.0) * math.sqrt(3.0)
+    sd = effect["spread_deg"] if effect.get("name") == "misalignment" else spec.get("misalignment_deg", 0.0)
+    spread = sd * math.sqrt(3.0)
     fabric = {"name": spec["name"], "areal_density_g_m2": 1e3 * params["density_kg_m2"],
               "thickness_mm": 1e3 * params["thickness_m"], "tensile": []}
     drawn = []

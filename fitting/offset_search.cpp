@@ -1,0 +1,142 @@
+#include "fitting/offset_search.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace twill {
+namespace {
+
+// The finest grid the force model is minimised on (when the search's resolution is 0, exact):
+// its cost is a few hundred evaluations of a quadratic per point, nothing beside a strip.
+constexpr double kModelGridDeg = 0.01;
+
+}  // namespace
+
+OffsetSearch::OffsetSearch(OffsetSearchOptions options, std::shared_ptr<const Effect> offset_effect)
+    : options_(options), offset_effect_(std::move(offset_effect)) {}
+
+double OffsetSearch::turned_angle(double nominal_deg, double offset_deg) const {
+  ExperimentInput input;
+  input.angle_deg = nominal_deg;
+  offset_effect_->adjust_setup(Eigen::VectorXd::Constant(1, offset_deg), &input);
+  return input.angle_deg;
+}
+
+bool OffsetSearch::nearly_even(const std::vector<std::vector<Sample>>& test_samples) {
+  double linear = 0, quadratic = 0;
+  for (const std::vector<Sample>& samples : test_samples) {
+    if (samples.size() < 2) continue;
+    const Sample& nominal = samples[0];
+    const Sample& probe = samples[1];
+    const Eigen::VectorXd linear_change = probe.offset_deg * nominal.simulated.dforce_dangle;
+    linear += linear_change.cwiseAbs().sum();
+    quadratic += (probe.simulated.force_N - nominal.simulated.force_N - linear_change).cwiseAbs().sum();
+  }
+  return quadratic > linear;
+}
+
+const OffsetSearch::Sample* OffsetSearch::nominal(const std::vector<Sample>& samples) {
+  const auto at = std::find_if(samples.begin(), samples.end(), [](const Sample& s) { return s.offset_deg == 0.0; });
+  return at == samples.end() ? nullptr : &*at;
+}
+
+const OffsetSearch::Sample* OffsetSearch::best(const std::vector<Sample>& samples) {
+  if (samples.empty()) return nullptr;
+  return &*std::min_element(samples.begin(), samples.end(),
+                            [](const Sample& a, const Sample& b) { return a.error < b.error; });
+}
+
+void OffsetSearch::sample(const FitContext& context, const std::vector<const RunData*>& runs,
+                          const std::vector<std::pair<size_t, double>>& wanted, int level, bool angle_derivative,
+                          std::vector<std::vector<Sample>>* samples) {
+  std::vector<StripCurves::Request> requests;
+  for (const auto& [i, offset] : wanted) requests.push_back({runs[i], turned_angle(runs[i]->test->angle_deg, offset)});
+  const auto simulated = curves_.simulate(context, requests, level, angle_derivative);
+  for (size_t r = 0; r < wanted.size(); ++r) {
+    if (!simulated[r]) continue;
+    const RunData& d = *runs[wanted[r].first];
+    (*samples)[wanted[r].first].push_back(
+        {wanted[r].second, (simulated[r]->force_N - d.force_N).cwiseAbs().sum() / d.force_N.cwiseAbs().sum(),
+         *simulated[r]});
+  }
+}
+
+OffsetSearch::ForceModel OffsetSearch::force_model(const std::vector<Sample>& samples) {
+  const Sample& nominal = samples.front();  // Δθ = 0, with the exact slope
+  const Sample& last = samples.back();
+  ForceModel m{nominal.simulated.force_N, nominal.simulated.dforce_dangle, {}};
+  if (samples.size() == 2) {  // Hermite: F(0), F'(0), F(x1)
+    const double x1 = last.offset_deg;
+    m.f2 = (last.simulated.force_N - m.f0 - m.f1 * x1) / (x1 * x1);
+    return m;
+  }
+  // Through the nominal and the last two samples (Newton's divided differences).
+  const Sample& before = samples[samples.size() - 2];
+  const double x1 = before.offset_deg, x2 = last.offset_deg;
+  const Eigen::VectorXd d01 = (before.simulated.force_N - m.f0) / x1;
+  const Eigen::VectorXd d12 = (last.simulated.force_N - before.simulated.force_N) / (x2 - x1);
+  m.f2 = (d12 - d01) / x2;
+  m.f1 = d01 - m.f2 * x1;
+  return m;
+}
+
+double OffsetSearch::model_minimiser(const ForceModel& m, const Eigen::VectorXd& measured) const {
+  // Candidates by increasing |Δθ|, + before −, a later one taken only when strictly better:
+  // on a material axis the model is even and +Δθ is the convention.
+  const double max = options_.max_offset_deg;
+  const double step = std::max(options_.resolution_deg, kModelGridDeg);
+  double best = 0, best_error = (m.f0 - measured).cwiseAbs().sum();
+  for (double x = step; x <= max + 1e-12; x += step)
+    for (const double candidate : {x, -x}) {
+      const double error = (m.f0 + candidate * m.f1 + candidate * candidate * m.f2 - measured).cwiseAbs().sum();
+      if (error < best_error) best = candidate, best_error = error;
+    }
+  return best;
+}
+
+double OffsetSearch::next_offset(const RunData& d, const std::vector<Sample>& samples) const {
+  const double max = options_.max_offset_deg;
+  if (samples.size() == 1) {  // the probe, on the side the exact slope points to
+    const Sample& nominal = samples.front();
+    const double step = linearised_l1_minimiser(nominal.simulated.force_N, nominal.simulated.dforce_dangle, d.force_N);
+    return std::min(kProbeDeg, max) * (step < 0 ? -1.0 : 1.0);
+  }
+  double next = model_minimiser(force_model(samples), d.force_N);
+  const double grid = options_.resolution_deg;
+  if (grid > 0) next = grid * std::round(next / grid);
+  return next;
+}
+
+double OffsetSearch::unconstrained_squared_offset(const RunData& d, const std::vector<Sample>& samples) {
+  if (samples.size() < 2) return 0.0;
+  const Sample& nominal = samples.front();
+  const Sample& last = samples.back();
+  const double v = last.offset_deg * last.offset_deg;
+  return linearised_l1_minimiser(nominal.simulated.force_N, (last.simulated.force_N - nominal.simulated.force_N) / v,
+                                 d.force_N);
+}
+
+std::vector<std::vector<OffsetSearch::Sample>> OffsetSearch::search(const FitContext& context,
+                                                                    const std::vector<const RunData*>& runs,
+                                                                    int level) {
+  std::vector<std::vector<Sample>> samples(runs.size());
+  const double grid = options_.resolution_deg;
+  std::vector<std::pair<size_t, double>> wanted;
+  for (size_t i = 0; i < runs.size(); ++i) wanted.emplace_back(i, 0.0);
+  for (int iteration = 0; !wanted.empty(); ++iteration) {
+    sample(context, runs, wanted, level, iteration == 0, &samples);
+    wanted.clear();
+    if (iteration == options_.iterations) break;
+    for (size_t i = 0; i < runs.size(); ++i) {
+      if (samples[i].empty()) continue;
+      const double next = next_offset(*runs[i], samples[i]);
+      const bool seen = std::any_of(samples[i].begin(), samples[i].end(), [&](const Sample& s) {
+        return std::abs(s.offset_deg - next) < 0.5 * std::max(grid, 1e-9);
+      });
+      if (!seen) wanted.emplace_back(i, next);
+    }
+  }
+  return samples;
+}
+
+}  // namespace twill

@@ -1,0 +1,97 @@
+#pragma once
+// The angle offset Δθ of strips (paper §7's validation offsets; the misalignment effect's
+// per-run parameter, effects/misalignment.hpp, docs/effects/misalignment.md), searched run by
+// run at one level with the context's parameters. Used by the validation stage (its strips)
+// and by the misalignment effect-fit (the fit runs).
+//
+// A 1-D search on the run's error e(Δθ) = Σ|F(θ0 + Δθ) − F̆| / Σ|F̆|: the nominal strip with
+// the exact dF/dθ (Eq. 6, TensileExperiment::set_angle_sensitivity), a probe at kProbeDeg on
+// the side that slope points to, then per step a quadratic model of every point's force in Δθ
+// — Hermite through F(0), F'(0) and the probe, later through the nominal and the last two
+// samples — whose L1 misfit Σ|F_model(Δθ) − F̆| is minimised on a grid over ±max_offset_deg;
+// the minimiser, rounded to resolution_deg, is simulated next, at most `iterations` times,
+// until it repeats an evaluated offset. The best evaluated offset wins (Δθ = 0 is always
+// evaluated, first). Quadratic, not linear, because the strips that matter most are nearly
+// symmetric in Δθ:
+//
+// - on a material axis (θ0 ≡ 0 mod 90°: warp, weft) the orthotropic law is mirror-symmetric
+//   about the strip's axis, F(θ0 + Δθ) = F(θ0 − Δθ): dF/dθ = 0 at the nominal angle (a
+//   Newton step would never leave it), every cut lowers the force by ½|F''|Δθ², and the
+//   sign of Δθ is not identified (+ by convention);
+// - a bias strip of a stiff-yarn weave deforms by shear, which is symmetric about 45° up to
+//   the small a11 − a22 imbalance: F is nearly even there too.
+// Runs of one test share their simulations (StripCurves): the nominal angle costs one curve
+// per test, each later step one per distinct offset, warm-started from the nominal strip's
+// q + Δθ dq/dθ.
+#include <memory>
+#include <vector>
+
+#include "effects/effect.hpp"
+#include "effects/misalignment.hpp"
+#include "fitting/fit_context.hpp"
+#include "fitting/strip_curves.hpp"
+
+namespace twill {
+
+struct OffsetSearchOptions {
+  double max_offset_deg = Misalignment::kMaxOffsetDeg;
+  /// Steps after the nominal strip: the probe, the Hermite model's minimiser, and one model
+  /// through three samples to confirm or correct it.
+  int iterations = 3;
+  /// Runs sharing an offset share a simulation; 0.05° is far below a cut's 1–2° error.
+  double resolution_deg = 0.05;
+};
+
+class OffsetSearch {
+ public:
+  struct Sample {
+    double offset_deg, error;
+    StripCurves::Simulated simulated;
+  };
+  /// The probe: within the 1–2° of a careful cut, and large enough that F(θ0 ± 1°) − F(θ0) is
+  /// far above the solver's tolerance (a few % of F for a stiff-yarn weave on an axis, where
+  /// 1/E(θ) ≈ 1/E1 + θ²/G12).
+  static constexpr double kProbeDeg = 1.0;
+
+  /// `offset_effect`: the effect whose set-up hook turns a strip by its offset.
+  OffsetSearch(OffsetSearchOptions options, std::shared_ptr<const Effect> offset_effect);
+
+  /// Searches each run's offset at `level`; per run its samples, Δθ = 0 first (none when the
+  /// nominal strip did not converge).
+  std::vector<std::vector<Sample>> search(const FitContext& context, const std::vector<const RunData*>& runs,
+                                          int level);
+
+  /// The angle a strip cut at `nominal_deg` with `offset_deg` lies at (the effect's hook).
+  double turned_angle(double nominal_deg, double offset_deg) const;
+  /// Whether the forces of a test's runs (their samples, nominal and probe first) are nearly
+  /// even in the offset: over the probe's ±1°, the quadratic part of the change,
+  /// Σ|F(h) − F(0) − F'(0) h|, exceeds the linear part Σ|F'(0) h| (warp and weft on the
+  /// material axes, where F'(0) = 0; the bias of a stiff-yarn weave). Runs without a probe
+  /// count for nothing.
+  static bool nearly_even(const std::vector<std::vector<Sample>>& test_samples);
+  static const Sample* nominal(const std::vector<Sample>& samples);
+  static const Sample* best(const std::vector<Sample>& samples);
+  /// Where F is nearly even, F ≈ F0 + c Δθ² is linear in v = Δθ²: the v minimising the
+  /// run's L1 misfit along the line through the nominal and the last sample, negative when
+  /// the run's forces lie above the nominal strip's (an offset no strip can have, but the
+  /// gauge of the misalignment effect-fit shifts every v of a test by the smallest).
+  static double unconstrained_squared_offset(const RunData& d, const std::vector<Sample>& samples);
+
+ private:
+  void sample(const FitContext& context, const std::vector<const RunData*>& runs,
+              const std::vector<std::pair<size_t, double>>& wanted, int level, bool angle_derivative,
+              std::vector<std::vector<Sample>>* samples);
+  /// F(Δθ) ≈ f0 + f1 Δθ + f2 Δθ², per point.
+  struct ForceModel {
+    Eigen::VectorXd f0, f1, f2;
+  };
+  static ForceModel force_model(const std::vector<Sample>& samples);
+  double model_minimiser(const ForceModel& model, const Eigen::VectorXd& measured) const;
+  double next_offset(const RunData& d, const std::vector<Sample>& samples) const;
+
+  OffsetSearchOptions options_;
+  std::shared_ptr<const Effect> offset_effect_;
+  StripCurves curves_;
+};
+
+}  // namespace twill
