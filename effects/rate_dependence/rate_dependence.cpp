@@ -62,14 +62,19 @@ double run_speed_mm_min(const TensileTest& test, const TensileRun& run) {
 
 std::string RateDependence::missing_data(const Dataset& dataset) const {
   std::vector<double> speeds;
+  bool clocked_loop = false;  // a run with a clock that comes back down: its loop shows β and t_r
   for (const TensileTest& test : dataset.tensile)
     for (const TensileRun& run : test.runs)
-      if (const double v = run_speed_mm_min(test, run); v > 0) speeds.push_back(v);
+      if (const double v = run_speed_mm_min(test, run); v > 0) {
+        speeds.push_back(v);
+        clocked_loop = clocked_loop || run.peak_index + 1 < run.size();
+      }
   if (!speeds.empty()) {
     const auto [lo, hi] = std::minmax_element(speeds.begin(), speeds.end());
-    if (*hi > (1.0 + kDistinctSpeeds) * *lo) return "";
+    if (*hi > (1.0 + kDistinctSpeeds) * *lo || clocked_loop) return "";
   }
-  return "needs tensile runs at two or more crosshead speeds (rate_mm_min per test, or time_s columns)";
+  return "needs tensile runs at two or more crosshead speeds, or runs at one speed with an unloading branch "
+         "(rate_mm_min per test, or time_s columns)";
 }
 
 ObservableChange RateDependence::observable_change(const RunConditions& run, const MaterialParameters& k) const {

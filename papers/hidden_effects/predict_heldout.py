@@ -40,6 +40,19 @@ def error(predicted, measured):
     return sum(abs(p - m) for p, m in zip(predicted, measured)) / sum(abs(m) for m in measured)
 
 
+def scaled_error(predicted, measured):
+    """error() after the run's own best scale s (argmin Σ|s p − m|: the weighted median of m/p
+    with weights |p|): what is left when a specimen's 10-20 % scale (paper §6.4) is taken out,
+    i.e. how well the curve's shape is predicted."""
+    pairs = sorted((m / p, abs(p)) for p, m in zip(predicted, measured) if p != 0)
+    half, below = 0.5 * sum(w for _, w in pairs), 0.0
+    for ratio, w in pairs:
+        below += w
+        if below >= half:
+            return error([ratio * p for p in predicted], measured)
+    return error(predicted, measured)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("twill")

@@ -39,6 +39,21 @@ COMPARED = {
 EFFECT_OVERRIDES = {"misalignment": ["repeats.rule=all"]}
 
 
+def bending_stiffness_recovery(truth, fit_dir, fitted):
+    """Per direction, the fitted cantilever bending stiffness b τ³ a against the generator's
+    (what a cantilever identifies; τ and equal ratios trade, docs/effects/bending-anisotropy.md)."""
+    with open(os.path.join(fit_dir, "params.yaml")) as f:
+        k = yaml.safe_load(f)
+    t = truth["params"]
+    out = {}
+    for direction, a in (("warp", "a11_Pa"), ("weft", "a22_Pa")):
+        got = fitted[f"bending-anisotropy.{direction}_bending_ratio"] * k["thickness_m"] ** 3 * k[a]
+        expected = truth["effect"][f"{direction}_ratio"] * t["thickness_m"] ** 3 * t[a]
+        out[f"bending stiffness {direction}"] = {"fitted": got / 12, "expected": expected / 12,
+                                                 "relative": got / expected - 1}
+    return out
+
+
 def drawn_spread(truth, report):
     """RMS of the offsets drawn for the strips the fit used."""
     used = {c["run"] for c in report["fit"]}
@@ -108,7 +123,8 @@ def main():
                                parameters={p["name"]: p["value"] for p in e["parameters"]})
                     with open(os.path.join(data, "truth.yaml")) as f:
                         truth = yaml.safe_load(f)
-                    row["recovery"] = {}
+                    row["recovery"] = (bending_stiffness_recovery(truth, fit, row["parameters"])
+                                       if effect == "bending-anisotropy" else {})
                     for name, key, label in COMPARED.get(effect, []):
                         if effect == "misalignment":
                             expected = drawn_spread(truth, report)

@@ -16,7 +16,12 @@ effect library (effects/), so that fitting them back is not circular:
   misalignment     per-run angle offsets drawn uniformly from [-sqrt(3) s, sqrt(3) s] (sd s)
                    (twill's library: normal with spread s); the effect's spread_deg replaces
                    the spec's misalignment_deg (which every strip gets otherwise);
-  poisson          a12 = r min(a11, a22) set in the truth's params, lateral strain columns.
+  poisson          a12 = r min(a11, a22) set in the truth's params, lateral strain columns;
+  bending-anisotropy  a shell of another thickness per cantilever direction: the cantilever along
+                   a direction with ratio b is simulated with tau b^(1/3) and the law's
+                   stiffnesses over b^(1/3) (tau a and the membrane unchanged, the bending
+                   stiffness tau^3 a / 12 times b) (twill's library: a factor on the bending
+                   strains, S = diag(sqrt b_w, sqrt b_f, (b_w b_f)^(1/4)), one thickness).
 
 Both path laws act on the strip path of docs/effects/strip_path.md (a lumped element in
 parallel with the strip, split into warp/weft/shear by c(theta)): that structure is the
@@ -30,6 +35,9 @@ Spec keys (unknown keys are an error naming the key):
   seed, resolution ("16x24"), discretization, scatter, misalignment_deg, noise_N,
   noise_relative, lateral_strain (bool), noise_lateral (sd of the lateral strains' noise), tests (list of {label, angle_deg, max_mm, step_mm,
   unload_to_mm (0: no unloading), repeats, rates_mm_min (list), role}),
+  bend (measured cantilevers, copied), bend_tests (simulated cantilevers: list of {angle_deg,
+  repeats}; each repeat's overhang at the D1388 chord angle, from `twill simulate --test bend
+  --find-overhang`, plus noise of sd noise_overhang_mm), noise_overhang_mm,
   effect ({name, ...law parameters}; absent: none hidden).
 """
 import argparse
@@ -42,13 +50,18 @@ import sys
 import yaml
 
 SPEC_KEYS = {"name", "truth", "seed", "resolution", "discretization", "scatter", "misalignment_deg", "noise_N",
-             "noise_relative", "lateral_strain", "noise_lateral", "tests", "effect", "bend"}
+             "noise_relative", "lateral_strain", "noise_lateral", "tests", "effect", "bend", "bend_tests",
+             "noise_overhang_mm"}
+BEND_TEST_KEYS = {"angle_deg", "repeats"}
+# ASTM D1388's cantilever: 25 mm wide, 200 mm long, the overhang read at a 41.5 degree chord.
+BEND_WIDTH_MM, BEND_LENGTH_MM, BEND_CHORD_DEG = 25, 200, 41.5
 TEST_KEYS = {"label", "angle_deg", "max_mm", "step_mm", "unload_to_mm", "repeats", "rates_mm_min", "role"}
 EFFECT_KEYS = {
     "hysteresis": {"name", "warp_friction_N_m", "weft_friction_N_m", "shear_friction_N_m", "yield_strain", "sliders"},
     "rate-dependence": {"name", "ratios", "relaxation_s"},
     "poisson": {"name", "coupling_ratio"},
     "misalignment": {"name", "spread_deg"},
+    "bending-anisotropy": {"name", "warp_ratio", "weft_ratio"},
     "none": {"name"},
 }
 SECONDS_PER_MINUTE = 60.0
@@ -161,6 +174,40 @@ def truth_params(spec, spec_dir):
     return params
 
 
+def bend_ratio(effect, angle_deg):
+    """The hidden bending ratio of a cantilever along angle_deg (warp: 90, weft: 0)."""
+    if effect.get("name") != "bending-anisotropy":
+        return 1.0
+    if abs(math.remainder(angle_deg, 180.0)) == 90.0:
+        return effect["warp_ratio"]
+    if abs(math.remainder(angle_deg, 180.0)) == 0.0:
+        return effect["weft_ratio"]
+    sys.exit(f"synthesize: bend_tests: bending-anisotropy's ratios are for warp (90) and weft (0), not {angle_deg}")
+
+
+def simulated_bends(twill, spec, params, effect, rng, out):
+    """The spec's bend_tests as dataset entries: overhangs at the chord angle, with noise."""
+    entries = []
+    for i, test in enumerate(spec.get("bend_tests", [])):
+        check_keys(test, BEND_TEST_KEYS, f"bend_tests[{i}]")
+        shrink = bend_ratio(effect, test["angle_deg"]) ** (1.0 / 3.0)
+        shell = dict(params, thickness_m=params["thickness_m"] * shrink)
+        for key in ("a11_Pa", "a12_Pa", "a22_Pa", "G12_Pa"):
+            shell[key] = params[key] / shrink
+        path = os.path.join(out, f"truth-bend-{i}.yaml")
+        with open(path, "w") as f:
+            yaml.safe_dump(shell, f, sort_keys=False)
+        found = subprocess.run([twill, "simulate", "--params", path, "--test", "bend", "--angle-deg",
+                                f"{test['angle_deg']:g}", "--find-overhang"], check=True, capture_output=True,
+                               text=True).stdout.strip()
+        overhang = float(found.split("=")[1])
+        noise = spec.get("noise_overhang_mm", 0.0)
+        entries.append({"angle_deg": test["angle_deg"], "width_mm": BEND_WIDTH_MM, "length_mm": BEND_LENGTH_MM,
+                        "chord_angle_deg": BEND_CHORD_DEG,
+                        "overhang_mm": [round(overhang + rng.gauss(0.0, noise), 2) for _ in range(test["repeats"])]})
+    return entries
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("spec")
@@ -212,7 +259,7 @@ def main():
                 entry["runs"].append(name)
                 drawn.append({"run": name, "offset_deg": offset, "scale": scale})
             fabric["tensile"].append(entry)
-    fabric["bend"] = spec.get("bend", [])
+    fabric["bend"] = spec.get("bend", []) + simulated_bends(args.twill, spec, params, effect, rng, args.out)
     if not fabric["bend"]:
         del fabric["bend"]
     with open(os.path.join(args.out, "fabric.yaml"), "w") as f:
