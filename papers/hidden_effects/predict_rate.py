@@ -26,7 +26,7 @@ import tempfile
 import yaml
 
 from predict_heldout import error, rows, scaled_error, simulate
-from run import HERE, run, twin_spec
+from run import HERE, run, twin_spec, write_summary
 
 
 def dataset(twill, out, seed, hidden):
@@ -115,18 +115,15 @@ def main():
                         "parameters": {p["name"]: p["value"] for p in effect["parameters"]}}
         results.append(row)
         print(json.dumps(row), flush=True)
-    with open(os.path.join(args.out, "rate-transfer.json"), "w") as f:
-        json.dump(results, f, indent=1)
-    with open(os.path.join(args.out, "rate-transfer.md"), "w") as f:
-        f.write("| seed | other rate, with the effect | without | floor (twin, without) | same, each run scaled: "
-                "with | without | floor | fitted |\n|---|---|---|---|---|---|---|---|\n")
-        for r in results:
-            pct = lambda d, k: f"{100 * r[d][k]:.2f} %" if d in r else "—"
-            fitted = ", ".join(f"{k.split('.')[-1]} {v:.3g}" for k, v in r.get("hidden", {}).get("parameters", {}).items())
-            f.write(f"| {r['seed']} | {pct('hidden', 'with')} | {pct('hidden', 'without')} | {pct('twin', 'without')} | "
-                    f"{pct('hidden', 'with_scaled')} | {pct('hidden', 'without_scaled')} | "
-                    f"{pct('twin', 'without_scaled')} | {fitted} |\n")
+    def line(r):
+        pct = lambda d, k: f"{100 * r[d][k]:.2f} %" if d in r else "—"
+        fitted = ", ".join(f"{k.split('.')[-1]} {v:.3g}" for k, v in r.get("hidden", {}).get("parameters", {}).items())
+        return [r["seed"], pct("hidden", "with"), pct("hidden", "without"), pct("twin", "without"),
+                pct("hidden", "with_scaled"), pct("hidden", "without_scaled"), pct("twin", "without_scaled"), fitted]
 
+    write_summary(os.path.join(args.out, "rate-transfer"), results,
+                  ["seed", "other rate, with the effect", "without", "floor (twin, without)",
+                   "each run scaled: with", "without", "floor", "fitted"], line)
 
 if __name__ == "__main__":
     sys.exit(main())

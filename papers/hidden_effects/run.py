@@ -79,6 +79,16 @@ def twin_spec(spec_path, out_path, hidden):
         yaml.safe_dump(spec, f, sort_keys=False)
 
 
+def write_summary(stem, rows, header, line):
+    """STEM.json (the rows) and STEM.md (a table: `header`, then line(row) per row)."""
+    with open(stem + ".json", "w") as f:
+        json.dump(rows, f, indent=1)
+    with open(stem + ".md", "w") as f:
+        f.write("| " + " | ".join(header) + " |\n|" + "---|" * len(header) + "\n")
+        for r in rows:
+            f.write("| " + " | ".join(str(cell) for cell in line(r)) + " |\n")
+
+
 def effect_row(report_path):
     with open(report_path) as f:
         report = json.load(f)
@@ -137,16 +147,13 @@ def main():
                                null_parameters={p["name"]: p["value"] for p in e["parameters"]})
             rows.append(row)
             print(json.dumps(row), flush=True)
-    with open(os.path.join(args.out, "summary.json"), "w") as f:
-        json.dump(rows, f, indent=1)
-    with open(os.path.join(args.out, "summary.md"), "w") as f:
-        f.write("| effect | seed | error without | error with | floor | with, on the twin | recovery |\n"
-                "|---|---|---|---|---|---|---|\n")
-        for r in rows:
-            rec = ", ".join(f"{k.split('.')[-1]} {100 * v['relative']:+.1f} %" for k, v in r.get("recovery", {}).items())
-            pct = lambda k: f"{100 * r[k]:.2f} %" if k in r else "—"
-            f.write(f"| {r['effect']} | {r['seed']} | {pct('error_without')} | {pct('error_with')} | {pct('floor')} | "
-                    f"{pct('null_with')} | {rec} |\n")
+    def line(r):
+        rec = ", ".join(f"{k.split('.')[-1]} {100 * v['relative']:+.1f} %" for k, v in r.get("recovery", {}).items())
+        pct = lambda k: f"{100 * r[k]:.2f} %" if k in r else "—"
+        return [r["effect"], r["seed"], pct("error_without"), pct("error_with"), pct("floor"), pct("null_with"), rec]
+
+    write_summary(os.path.join(args.out, "summary"), rows,
+                  ["effect", "seed", "error without", "error with", "floor", "with, on the twin", "recovery"], line)
 
 
 if __name__ == "__main__":
