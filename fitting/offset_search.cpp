@@ -23,16 +23,15 @@ double OffsetSearch::turned_angle(double nominal_deg, double offset_deg) const {
 }
 
 bool OffsetSearch::nearly_even(const std::vector<std::vector<Sample>>& test_samples) {
-  double linear = 0, quadratic = 0;
+  double slope = 0, curvature = 0;  // of the test's summed force, Hermite through the probe
   for (const std::vector<Sample>& samples : test_samples) {
     if (samples.size() < 2) continue;
-    const Sample& nominal = samples[0];
-    const Sample& probe = samples[1];
-    const Eigen::VectorXd linear_change = probe.offset_deg * nominal.simulated.dforce_dangle;
-    linear += linear_change.cwiseAbs().sum();
-    quadratic += (probe.simulated.force_N - nominal.simulated.force_N - linear_change).cwiseAbs().sum();
+    const ForceModel m = force_model({samples[0], samples[1]});
+    slope += m.f1.sum();
+    curvature += m.f2.sum();
   }
-  return quadratic > linear;
+  // The summed force's extremum at −slope / (2 curvature), if it has one near the nominal.
+  return curvature != 0 && std::abs(slope) <= 2 * kEvenVertexDeg * std::abs(curvature);
 }
 
 const OffsetSearch::Sample* OffsetSearch::nominal(const std::vector<Sample>& samples) {
@@ -96,10 +95,13 @@ double OffsetSearch::model_minimiser(const ForceModel& m, const Eigen::VectorXd&
 
 double OffsetSearch::next_offset(const RunData& d, const std::vector<Sample>& samples) const {
   const double max = options_.max_offset_deg;
-  if (samples.size() == 1) {  // the probe, on the side the exact slope points to
+  if (samples.size() == 1) {  // the probe: the linearised step, or ±kProbeDeg
     const Sample& nominal = samples.front();
     const double step = linearised_l1_minimiser(nominal.simulated.force_N, nominal.simulated.dforce_dangle, d.force_N);
-    return std::min(kProbeDeg, max) * (step < 0 ? -1.0 : 1.0);
+    const double probe = std::min(kProbeDeg, max);
+    if (std::abs(step) >= std::max(options_.resolution_deg, kModelGridDeg) && std::abs(step) <= probe)
+      return options_.resolution_deg > 0 ? options_.resolution_deg * std::round(step / options_.resolution_deg) : step;
+    return step < 0 ? -probe : probe;
   }
   double next = model_minimiser(force_model(samples), d.force_N);
   const double grid = options_.resolution_deg;

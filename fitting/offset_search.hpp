@@ -5,8 +5,11 @@
 // and by the misalignment effect-fit (the fit runs).
 //
 // A 1-D search on the run's error e(Δθ) = Σ|F(θ0 + Δθ) − F̆| / Σ|F̆|: the nominal strip with
-// the exact dF/dθ (Eq. 6, TensileExperiment::set_angle_sensitivity), a probe at kProbeDeg on
-// the side that slope points to, then per step a quadratic model of every point's force in Δθ
+// the exact dF/dθ (Eq. 6, TensileExperiment::set_angle_sensitivity); a probe at the linearised
+// step (t minimising Σ|F + t F' − F̆|, a weighted median) when that lies within ±kProbeDeg and
+// beyond the grid — where F is linear in Δθ (the 22.5°/67.5° validation strips) it is the
+// answer — else at ±kProbeDeg on the side the slope points to (where F'(0) vanishes, the
+// linearised step is 0 or far out); then per step a quadratic model of every point's force in Δθ
 // — Hermite through F(0), F'(0) and the probe, later through the nominal and the last two
 // samples — whose L1 misfit Σ|F_model(Δθ) − F̆| is minimised on a grid over ±max_offset_deg;
 // the minimiser, rounded to resolution_deg, is simulated next, at most `iterations` times,
@@ -48,10 +51,13 @@ class OffsetSearch {
     double offset_deg, error;
     StripCurves::Simulated simulated;
   };
-  /// The probe: within the 1–2° of a careful cut, and large enough that F(θ0 ± 1°) − F(θ0) is
-  /// far above the solver's tolerance (a few % of F for a stiff-yarn weave on an axis, where
+  /// The probe where the linearised step is no guide: within the 1–2° of a careful cut, and
+  /// large enough that F(θ0 ± 1°) − F(θ0) is far above the solver's tolerance (a few % of F for a stiff-yarn weave on an axis, where
   /// 1/E(θ) ≈ 1/E1 + θ²/G12).
   static constexpr double kProbeDeg = 1.0;
+  /// A test whose force extremum lies this close to the nominal angle has strips cut on both
+  /// sides of it (a careful cut is off by 1–2°), so an offset's sign is not identified.
+  static constexpr double kEvenVertexDeg = 2.0;
 
   /// `offset_effect`: the effect whose set-up hook turns a strip by its offset.
   OffsetSearch(OffsetSearchOptions options, std::shared_ptr<const Effect> offset_effect);
@@ -64,10 +70,10 @@ class OffsetSearch {
   /// The angle a strip cut at `nominal_deg` with `offset_deg` lies at (the effect's hook).
   double turned_angle(double nominal_deg, double offset_deg) const;
   /// Whether the forces of a test's runs (their samples, nominal and probe first) are nearly
-  /// even in the offset: over the probe's ±1°, the quadratic part of the change,
-  /// Σ|F(h) − F(0) − F'(0) h|, exceeds the linear part Σ|F'(0) h| (warp and weft on the
-  /// material axes, where F'(0) = 0; the bias of a stiff-yarn weave). Runs without a probe
-  /// count for nothing.
+  /// even in the offset: their sum, modelled as a quadratic in Δθ (Hermite through the probe),
+  /// has its extremum within ±kEvenVertexDeg of the nominal angle — warp and weft on the
+  /// material axes (extremum at 0), the bias of a stiff-yarn weave (near 0: poplin −0.2°).
+  /// Runs without a probe count for nothing.
   static bool nearly_even(const std::vector<std::vector<Sample>>& test_samples);
   static const Sample* nominal(const std::vector<Sample>& samples);
   static const Sample* best(const std::vector<Sample>& samples);
@@ -85,7 +91,7 @@ class OffsetSearch {
   struct ForceModel {
     Eigen::VectorXd f0, f1, f2;
   };
-  static ForceModel force_model(const std::vector<Sample>& samples);
+  static ForceModel force_model(const std::vector<Sample>& samples);  ///< nominal first
   double model_minimiser(const ForceModel& model, const Eigen::VectorXd& measured) const;
   double next_offset(const RunData& d, const std::vector<Sample>& samples) const;
 
