@@ -9,6 +9,10 @@ namespace {
 // The finest grid the force model is minimised on (when the search's resolution is 0, exact):
 // its cost is a few hundred evaluations of a quadratic per point, nothing beside a strip.
 constexpr double kModelGridDeg = 0.01;
+// A dF/dθ that changes the forces by less than this fraction over 1° carries no direction:
+// the solver's tolerance (1e-8 of the forces) is far below it, a strip off an axis far above
+// (poplin's stiff-yarn bias: 0.3 % per degree).
+constexpr double kFlatSlope = 1e-3;
 
 }  // namespace
 
@@ -99,7 +103,14 @@ double OffsetSearch::next_offset(const RunData& d, const std::vector<Sample>& sa
     const Sample& nominal = samples.front();
     const double step = linearised_l1_minimiser(nominal.simulated.force_N, nominal.simulated.dforce_dangle, d.force_N);
     const double probe = std::min(kProbeDeg, max);
-    if (std::abs(step) >= std::max(options_.resolution_deg, kModelGridDeg) && std::abs(step) <= probe)
+    const bool below_grid = std::abs(step) < std::max(options_.resolution_deg, kModelGridDeg);
+    // A slope that turns the forces by less than kFlatSlope of themselves over the probe's
+    // 1° says nothing (an axis, where it is 0): probe. An informative one whose step is
+    // below the grid says the nominal angle is the optimum: stop there (0 was evaluated).
+    const bool flat = nominal.simulated.dforce_dangle.cwiseAbs().sum() * probe <
+                      kFlatSlope * nominal.simulated.force_N.cwiseAbs().sum();
+    if (below_grid && !flat) return 0.0;
+    if (!below_grid && std::abs(step) <= probe)
       return options_.resolution_deg > 0 ? options_.resolution_deg * std::round(step / options_.resolution_deg) : step;
     return step < 0 ? -probe : probe;
   }
