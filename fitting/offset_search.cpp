@@ -103,15 +103,16 @@ double OffsetSearch::next_offset(const RunData& d, const std::vector<Sample>& sa
     const Sample& nominal = samples.front();
     const double step = linearised_l1_minimiser(nominal.simulated.force_N, nominal.simulated.dforce_dangle, d.force_N);
     const double probe = std::min(kProbeDeg, max);
-    const bool below_grid = std::abs(step) < std::max(options_.resolution_deg, kModelGridDeg);
+    const double grid = options_.resolution_deg;
+    const double rounded = grid > 0 ? grid * std::round(step / grid) : step;
+    const bool below_grid = std::abs(rounded) < kModelGridDeg;  // rounds to the nominal angle
     // A slope that turns the forces by less than kFlatSlope of themselves over the probe's
     // 1° says nothing (an axis, where it is 0): probe. An informative one whose step is
     // below the grid says the nominal angle is the optimum: stop there (0 was evaluated).
     const bool flat = nominal.simulated.dforce_dangle.cwiseAbs().sum() * probe <
                       kFlatSlope * nominal.simulated.force_N.cwiseAbs().sum();
     if (below_grid && !flat) return 0.0;
-    if (!below_grid && std::abs(step) <= probe)
-      return options_.resolution_deg > 0 ? options_.resolution_deg * std::round(step / options_.resolution_deg) : step;
+    if (!below_grid && std::abs(rounded) <= probe) return rounded;
     return step < 0 ? -probe : probe;
   }
   double next = model_minimiser(force_model(samples), d.force_N);
