@@ -18,8 +18,8 @@ effect library (effects/), so that fitting them back is not circular:
                    the spec's misalignment_deg (which every strip gets otherwise);
   poisson          a12 = r min(a11, a22) set in the truth's params, lateral strain columns;
   bending-anisotropy  a shell of another thickness per cantilever direction: the cantilever along
-                   a direction with ratio b is simulated with tau b^(1/3) and the law's
-                   stiffnesses over b^(1/3) (tau a and the membrane unchanged, the bending
+                   a direction with ratio b is simulated with tau sqrt(b) and the law's
+                   stiffnesses over sqrt(b) (tau a and the membrane unchanged, the bending
                    stiffness tau^3 a / 12 times b) (twill's library: a factor on the bending
                    strains, S = diag(sqrt b_w, sqrt b_f, (b_w b_f)^(1/4)), one thickness).
 
@@ -190,7 +190,8 @@ def simulated_bends(twill, spec, params, effect, rng, out):
     entries = []
     for i, test in enumerate(spec.get("bend_tests", [])):
         check_keys(test, BEND_TEST_KEYS, f"bend_tests[{i}]")
-        shrink = bend_ratio(effect, test["angle_deg"]) ** (1.0 / 3.0)
+        # tau' a' = tau a (the membrane) and tau'^3 a' = b tau^3 a (the bending stiffness).
+        shrink = bend_ratio(effect, test["angle_deg"]) ** 0.5
         shell = dict(params, thickness_m=params["thickness_m"] * shrink)
         for key in ("a11_Pa", "a12_Pa", "a22_Pa", "G12_Pa"):
             shell[key] = params[key] / shrink
