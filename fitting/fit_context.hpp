@@ -122,6 +122,8 @@ class FitContext {
   static std::string run_label(const RunData& d) { return d.test->label + " " + d.run->name(); }
   /// The angle the run's strip is simulated at (RunData::strip_angle_deg, else nominal).
   static double strip_angle(const RunData& d) { return d.strip_angle_deg.value_or(d.test->angle_deg); }
+  /// The run's strip angle minus its test's nominal angle (0 unless turned).
+  static double strip_offset(const RunData& d) { return strip_angle(d) - d.test->angle_deg; }
   /// What the effects' observable hooks see of a run's strip at `angle_deg` (its schedule,
   /// geometry and clock).
   static RunConditions run_conditions(const RunData& d, double angle_deg);

@@ -43,7 +43,7 @@ std::vector<ComponentChoice> estimate_effects(FitContext& context, const std::ve
       int turned_fit_runs = 0;
       for (const RunData& d : context.fit_runs)
         if (d.strip_angle_deg) {
-          offsets.push_back(Eigen::VectorXd::Constant(1, *d.strip_angle_deg - d.test->angle_deg));
+          offsets.push_back(Eigen::VectorXd::Constant(1, FitContext::strip_offset(d)));
           ++turned_fit_runs;
         }
       fitted.options = context.effects[i]->estimated_from_runs(offsets, fitted.options);

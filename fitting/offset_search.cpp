@@ -97,14 +97,18 @@ double OffsetSearch::model_minimiser(const ForceModel& m, const Eigen::VectorXd&
   return best;
 }
 
+double OffsetSearch::on_grid(double offset_deg) const {
+  const double grid = options_.resolution_deg;
+  return grid > 0 ? grid * std::round(offset_deg / grid) : offset_deg;
+}
+
 double OffsetSearch::next_offset(const RunData& d, const std::vector<Sample>& samples) const {
   const double max = options_.max_offset_deg;
   if (samples.size() == 1) {  // the probe: the linearised step, or ±kProbeDeg
     const Sample& nominal = samples.front();
     const double step = linearised_l1_minimiser(nominal.simulated.force_N, nominal.simulated.dforce_dangle, d.force_N);
     const double probe = std::min(kProbeDeg, max);
-    const double grid = options_.resolution_deg;
-    const double rounded = grid > 0 ? grid * std::round(step / grid) : step;
+    const double rounded = on_grid(step);
     const bool below_grid = std::abs(rounded) < kModelGridDeg;  // rounds to the nominal angle
     // A slope that turns the forces by less than kFlatSlope of themselves over the probe's
     // 1° says nothing (an axis, where it is 0): probe. An informative one whose step is
@@ -115,10 +119,7 @@ double OffsetSearch::next_offset(const RunData& d, const std::vector<Sample>& sa
     if (!below_grid && std::abs(rounded) <= probe) return rounded;
     return step < 0 ? -probe : probe;
   }
-  double next = model_minimiser(force_model(samples), d.force_N);
-  const double grid = options_.resolution_deg;
-  if (grid > 0) next = grid * std::round(next / grid);
-  return next;
+  return on_grid(model_minimiser(force_model(samples), d.force_N));
 }
 
 double OffsetSearch::unconstrained_squared_offset(const RunData& d, const std::vector<Sample>& samples) {

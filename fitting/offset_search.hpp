@@ -9,8 +9,8 @@
 // step (t minimising Σ|F + t F' − F̆|, a weighted median) when that lies within ±kProbeDeg and
 // beyond the grid — where F is linear in Δθ (the 22.5°/67.5° validation strips) it is the
 // answer — else at ±kProbeDeg on the side the slope points to (where F'(0) vanishes, the
-// linearised step is 0 or far out); then per step a quadratic model of every point's force in Δθ
-// — Hermite through F(0), F'(0) and the probe, later through the nominal and the last two
+// linearised step is 0 or far out); then per step a quadratic model of every point's force in
+// Δθ — Hermite through F(0), F'(0) and the probe, later through the nominal and the last two
 // samples — whose L1 misfit Σ|F_model(Δθ) − F̆| is minimised on a grid over ±max_offset_deg;
 // the minimiser, rounded to resolution_deg, is simulated next, at most `iterations` times,
 // until it repeats an evaluated offset. The best evaluated offset wins (Δθ = 0 is always
@@ -52,8 +52,8 @@ class OffsetSearch {
     StripCurves::Simulated simulated;
   };
   /// The probe where the linearised step is no guide: within the 1–2° of a careful cut, and
-  /// large enough that F(θ0 ± 1°) − F(θ0) is far above the solver's tolerance (a few % of F for a stiff-yarn weave on an axis, where
-  /// 1/E(θ) ≈ 1/E1 + θ²/G12).
+  /// large enough that F(θ0 ± 1°) − F(θ0) is far above the solver's tolerance (a few % of F
+  /// for a stiff-yarn weave on an axis, where 1/E(θ) ≈ 1/E1 + θ²/G12).
   static constexpr double kProbeDeg = 1.0;
   /// A test whose force extremum lies this close to the nominal angle has strips cut on both
   /// sides of it (a careful cut is off by 1–2°), so an offset's sign is not identified.
@@ -93,6 +93,7 @@ class OffsetSearch {
   };
   static ForceModel force_model(const std::vector<Sample>& samples);  ///< nominal first
   double model_minimiser(const ForceModel& model, const Eigen::VectorXd& measured) const;
+  double on_grid(double offset_deg) const;  ///< rounded to resolution_deg (0: as it is)
   double next_offset(const RunData& d, const std::vector<Sample>& samples) const;
 
   OffsetSearchOptions options_;

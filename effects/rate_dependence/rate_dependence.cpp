@@ -67,7 +67,7 @@ std::string RateDependence::missing_data(const Dataset& dataset) const {
     for (const TensileRun& run : test.runs)
       if (const double v = run_speed_mm_min(test, run); v > 0) {
         speeds.push_back(v);
-        clocked_loop = clocked_loop || run.peak_index + 1 < run.size();
+        clocked_loop = clocked_loop || run.has_unloading;
       }
   if (!speeds.empty()) {
     const auto [lo, hi] = std::minmax_element(speeds.begin(), speeds.end());

@@ -235,15 +235,14 @@ class EffectFit final : public FitStage {
     result.error_without = error_without;
     result.error_with = error_with;
     std::vector<Eigen::VectorXd> run_values;
-    for (const RunData* d : fixed) run_values.push_back(Eigen::VectorXd::Constant(1, offset_of(*d)));
+    for (const RunData* d : fixed)
+      run_values.push_back(Eigen::VectorXd::Constant(1, FitContext::strip_offset(*d)));
     ComponentChoice& fitted = context.params.effects[index];
     fitted.options = context.effects[index]->estimated_from_runs(run_values, fitted.options);
     for (const EffectParameter& p : effect_parameters({fitted}, context.registry()))
       result.parameters.push_back({p.name, p.unit, p.value, p.lower, p.upper});
     finish(context, std::move(result), out);
   }
-
-  static double offset_of(const RunData& d) { return FitContext::strip_angle(d) - d.test->angle_deg; }
 
   static bool has_repeats(const std::vector<RunData*>& runs) {
     for (const RunData* d : runs)
@@ -288,9 +287,11 @@ class EffectFit final : public FitStage {
 
   void report_offsets(FitContext& context, int round, const std::vector<const RunData*>& runs) const {
     std::string line;
-    for (const RunData* d : runs) line += fmt::format("{}{} {:+.2f}", line.empty() ? "" : ", ", d->run->name(), offset_of(*d));
+    for (const RunData* d : runs)
+      line += fmt::format("{}{} {:+.2f}", line.empty() ? "" : ", ", d->run->name(), FitContext::strip_offset(*d));
     context.say(0, fmt::format("effect {} round {}: offsets (deg) {}", options_.effect, round + 1, line));
   }
+
   bool forces() const { return options_.observable == "force_N" || options_.observable == "both"; }
   bool laterals() const { return options_.observable == "lateral_strain" || options_.observable == "both"; }
 

@@ -45,7 +45,7 @@ class FinalCurves final : public FitStage {
         continue;
       }
       FitCurve c = FitContext::curve_record(d, "fit", *forces[r]);
-      c.delta_theta_deg = FitContext::strip_angle(d) - d.test->angle_deg;
+      c.delta_theta_deg = FitContext::strip_offset(d);
       if (const CurveStage* stage = context.fitted_curve_at(d.test->angle_deg))
         c.degree = (context.params.*(stage->term->curve_member)).degree();
       out.fit.push_back(c);

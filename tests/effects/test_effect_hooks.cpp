@@ -262,12 +262,9 @@ TEST(RateDependenceEffect, FasterPullsCarryMoreForceAndSlowOnesRelax) {
   EXPECT_NE(effect.missing_data(one_speed).find("two or more"), std::string::npos);
   // One speed, but a run that comes back down: its loop shows the branch.
   TensileRun& loop = one_speed.tensile[0].runs[0];
-  loop.extension_mm = {1.0, 2.0, 1.0};
-  loop.force_N = {1.0, 2.0, 1.0};
-  loop.peak_index = 1;
+  loop.has_unloading = true;  // as the reader sets it for rows that come back down
   EXPECT_EQ(effect.missing_data(one_speed), "");
-  loop.extension_mm.pop_back();
-  loop.force_N.pop_back();
+  loop.has_unloading = false;
   EXPECT_NE(effect.missing_data(one_speed).find("two or more"), std::string::npos);
   one_speed.tensile[1].rate_mm_min = 200;  // the paper's two speeds
   EXPECT_EQ(effect.missing_data(one_speed), "");
