@@ -3,9 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <stdexcept>
 
 #include "core/params_io.hpp"
+#include "core/specimen_scale.hpp"
 
 namespace twill {
 
@@ -200,12 +202,60 @@ FitObjective::FitObjective(ParameterMap map, std::vector<std::shared_ptr<Predict
                                     std::to_string(j) + " is zero or not finite (relative error)");
   }
   predictions_.resize(predictors_.size());
+  scales_.assign(predictors_.size(), 1.0);
 }
 
 int FitObjective::num_residuals() const {
   int m = 0;
   for (const auto& p : predictors_) m += static_cast<int>(p->measured().size());
   return m;
+}
+
+void FitObjective::set_scale_groups(std::vector<int> groups) {
+  if (!groups.empty() && groups.size() != predictors_.size())
+    throw std::invalid_argument("FitObjective: " + std::to_string(groups.size()) + " scale groups for " +
+                                std::to_string(predictors_.size()) + " predictors");
+  scale_groups_ = std::move(groups);
+  cache_valid_ = false;
+}
+
+bool FitObjective::predict_all(const MaterialParameters& k, bool want_jacobian, std::vector<Eigen::VectorXd>* values,
+                               std::vector<Eigen::MatrixXd>* jacobians) {
+  values->assign(predictors_.size(), Eigen::VectorXd());
+  jacobians->assign(predictors_.size(), Eigen::MatrixXd());
+  for (size_t i = 0; i < predictors_.size(); ++i) {
+    Predictor& p = *predictors_[i];
+    std::string message;
+    bool ok = false;
+    try {
+      ok = p.predict(k, map_.dependent_indices(), &(*values)[i], want_jacobian ? &(*jacobians)[i] : nullptr,
+                     &message);
+    } catch (const std::exception& e) {
+      message = e.what();
+    }
+    if (!ok) {
+      failure_ = p.label() + ": " + message;
+      ++failed_evaluations_;
+      return false;
+    }
+  }
+  return true;
+}
+
+std::vector<double> FitObjective::profiled_scales(const std::vector<Eigen::VectorXd>& values) const {
+  std::vector<double> scales(predictors_.size(), 1.0);
+  std::map<int, std::vector<size_t>> members;
+  for (size_t i = 0; i < scale_groups_.size(); ++i)
+    if (scale_groups_[i] >= 0) members[scale_groups_[i]].push_back(i);
+  for (const auto& [group, indices] : members) {
+    std::vector<Eigen::VectorXd> relative;
+    for (size_t i : indices) relative.push_back(values[i].cwiseQuotient(predictors_[i]->measured()));
+    std::vector<ScaledRun> runs;
+    for (size_t j = 0; j < indices.size(); ++j) runs.push_back({&relative[j], weights_[indices[j]]});
+    const std::vector<double> s = profiled_group_scales(runs);
+    for (size_t j = 0; j < indices.size(); ++j) scales[indices[j]] = s[j];
+  }
+  return scales;
 }
 
 bool FitObjective::compute(const Eigen::VectorXd& x, bool want_jacobian) {
@@ -228,37 +278,27 @@ bool FitObjective::compute(const Eigen::VectorXd& x, bool want_jacobian) {
     ++failed_evaluations_;
     return false;
   }
-  const std::vector<int>& dependent = map_.dependent_indices();
+  std::vector<Eigen::VectorXd> values;
+  std::vector<Eigen::MatrixXd> dvalues;
+  if (!predict_all(k, want_jacobian, &values, &dvalues)) return false;
+  const std::vector<double> scales = profiled_scales(values);
   const Eigen::MatrixXd dk_dx = want_jacobian ? map_.jacobian(x) : Eigen::MatrixXd();
   if (want_jacobian) cache_j_.setZero(m, dimension());
   Eigen::VectorXd r(m);
   int row = 0;
   for (size_t i = 0; i < predictors_.size(); ++i) {
-    Predictor& p = *predictors_[i];
-    Eigen::VectorXd values;
-    Eigen::MatrixXd dvalues;
-    std::string message;
-    bool ok = false;
-    try {
-      ok = p.predict(k, dependent, &values, want_jacobian ? &dvalues : nullptr, &message);
-    } catch (const std::exception& e) {
-      message = e.what();
-    }
-    if (!ok) {
-      failure_ = p.label() + ": " + message;
-      ++failed_evaluations_;
-      return false;
-    }
-    const Eigen::VectorXd& measured = p.measured();
+    const Eigen::VectorXd& measured = predictors_[i]->measured();
     const double sqrt_w = std::sqrt(weights_[i]);
     const Eigen::Index n = measured.size();
-    r.segment(row, n) = sqrt_w * (values - measured).cwiseQuotient(measured);
+    predictions_[i] = scales[i] * values[i];
+    r.segment(row, n) = sqrt_w * (predictions_[i] - measured).cwiseQuotient(measured);
+    // Scales held: exact for the gradient (envelope theorem, core/specimen_scale.hpp).
     if (want_jacobian)
       cache_j_.middleRows(row, n) =
-          (sqrt_w * measured.cwiseInverse()).asDiagonal() * (dvalues * dk_dx);
-    predictions_[i] = values;
+          (sqrt_w * scales[i] * measured.cwiseInverse()).asDiagonal() * (dvalues[i] * dk_dx);
     row += static_cast<int>(n);
   }
+  scales_ = scales;
   cache_r_ = r;
   return std::isfinite(r.sum());
 }

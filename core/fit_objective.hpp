@@ -131,7 +131,14 @@ class FitObjective : public Problem {
 
   const ParameterMap& map() const { return map_; }
   int num_residuals() const;
-  /// Per-predictor predictions at the last successful evaluation (for reports).
+  /// Specimen scales (core/specimen_scale.hpp): groups[i] is predictor i's group (the runs of
+  /// one test), −1 for none; each group's scales are profiled out at every evaluation with
+  /// their geometric mean held at 1. Without groups every scale is 1 (the paper's Eq. 3).
+  void set_scale_groups(std::vector<int> groups);
+  /// Per-predictor scale at the last successful evaluation (1 outside a group).
+  const std::vector<double>& scales() const { return scales_; }
+  /// Per-predictor predictions at the last successful evaluation, times their scales (what
+  /// the residuals compare with the measurements; for reports).
   const std::vector<Eigen::VectorXd>& last_predictions() const { return predictions_; }
   /// Average relative error Σ|p̂ − p̆| / Σ|p̆| of predictor i at the last evaluation (model.md §8).
   double average_relative_error(int predictor) const;
@@ -144,10 +151,18 @@ class FitObjective : public Problem {
  private:
   // Evaluates residuals (and Jacobian when wanted) at x, reusing the cache when x repeats.
   bool compute(const Eigen::VectorXd& x, bool want_jacobian);
+  // Every predictor's raw predictions (and ∂/∂k on the dependent entries when wanted) at k;
+  // false with failure_ set when one fails.
+  bool predict_all(const MaterialParameters& k, bool want_jacobian, std::vector<Eigen::VectorXd>* values,
+                   std::vector<Eigen::MatrixXd>* jacobians);
+  // The profiled specimen scales of the raw predictions (1 outside a group).
+  std::vector<double> profiled_scales(const std::vector<Eigen::VectorXd>& values) const;
 
   ParameterMap map_;
   std::vector<std::shared_ptr<Predictor>> predictors_;
   std::vector<double> weights_;
+  std::vector<int> scale_groups_;  ///< empty: no scales
+  std::vector<double> scales_;
   ProgressFunction progress_;
   std::vector<Eigen::VectorXd> predictions_;
   long evaluations_ = 0;

@@ -38,7 +38,11 @@ OptionBindings<FitRepeats> repeats_bindings() {
   using S = FitRepeats;
   return {enum_option<S>("rule", &S::rule, repeat_rule_names(),
                          "paper: largest forces for warp/weft, one random run for others"),
-          integer_option<S>("seed", &S::seed, "seed of the random choice", at_least(0))};
+          integer_option<S>("seed", &S::seed, "seed of the random choice", at_least(0)),
+          enum_option<S>("scale", &S::scale,
+                         {{"none", SpecimenScale::None}, {"per-run", SpecimenScale::PerRun}},
+                         "per-run: each fit run's forces times its own scale, a test's scales with geometric "
+                         "mean 1 (the repeat scatter; needs rule=all to matter)")};
 }
 
 OptionBindings<FitDataSelection> data_bindings() {

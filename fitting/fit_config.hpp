@@ -45,8 +45,13 @@ struct FitDataSelection {
 };
 
 /// Which repeats are fitted (`repeats`, paper §6.4).
+/// How the repeat scatter enters Eq. 3: not at all (the paper), or a profiled scale per fit run
+/// with the geometric mean of a test's scales held at 1 (core/specimen_scale.hpp).
+enum class SpecimenScale { None, PerRun };
+
 struct FitRepeats {
   RepeatRule rule = RepeatRule::Paper;
+  SpecimenScale scale = SpecimenScale::None;
   std::int64_t seed = 1;
   bool validate(std::string* error) const;
 };

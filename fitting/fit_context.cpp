@@ -20,6 +20,12 @@ double mean(const std::vector<double>& v) {
   return v.empty() ? 0.0 : std::accumulate(v.begin(), v.end(), 0.0) / static_cast<double>(v.size());
 }
 
+double geometric_mean(const std::vector<double>& v) {
+  double log_sum = 0;
+  for (double x : v) log_sum += std::log(x);
+  return v.empty() ? 0.0 : std::exp(log_sum / static_cast<double>(v.size()));
+}
+
 double mean_run_error(const FitObjective& objective, size_t n) {
   std::vector<double> e;
   for (size_t i = 0; i < n; ++i) e.push_back(objective.average_relative_error(static_cast<int>(i)));
@@ -255,6 +261,7 @@ FitContext::CurveFit FitContext::fit_curve(const CurveStage& stage, int level, M
   }
   ParameterMap map(*p, stage.free_parameters());
   FitObjective objective(map, predictors);
+  objective.set_scale_groups(scale_groups(runs, predictors.size()));
   const int degree = ((*p).*(stage.term->curve_member)).degree();
   objective.set_progress([&](const IterationRecord& it, const Eigen::VectorXd&) {
     say(1, fmt::format("  {} {} degree {} it {:3d}: eps {:.4e} |g| {:.2e} ({} solves)", stage.label, resolution,
@@ -277,12 +284,32 @@ FitContext::CurveFit FitContext::fit_curve(const CurveStage& stage, int level, M
   }
   *p = map.parameters(r.x);
   out.ok = true;
+  out.scales = objective.scales();
   out.error = mean_run_error(objective, runs.size());
   const FitStageRecord& rec = record_stage(stage.label, resolution, degree, out.error, *optimizer, r, objective, t);
   say(0, fmt::format("{} {} degree {}: error {:.2f} % ({}, {} its, {} solves, {:.1f} s){}", stage.label, resolution,
                      degree, 100 * out.error, rec.status, rec.iterations, rec.equilibrium_solves, rec.wall_time_s,
                      r.status == OptimizerStatus::converged ? "" : ": " + rec.message));
   return out;
+}
+
+std::vector<int> FitContext::scale_groups(const std::vector<const RunData*>& runs, size_t predictors) const {
+  if (config_.repeats.scale == SpecimenScale::None) return {};
+  std::vector<int> groups(predictors, -1);
+  std::vector<const TensileTest*> tests;
+  for (size_t i = 0; i < runs.size(); ++i) {
+    auto at = std::find(tests.begin(), tests.end(), runs[i]->test);
+    if (at == tests.end()) at = tests.insert(tests.end(), runs[i]->test);
+    groups[i] = static_cast<int>(at - tests.begin());
+  }
+  return groups;
+}
+
+void FitContext::keep_scales(const std::vector<const RunData*>& runs, const std::vector<double>& scales) {
+  if (config_.repeats.scale == SpecimenScale::None) return;
+  for (size_t i = 0; i < runs.size(); ++i)
+    for (RunData& d : fit_runs)
+      if (d.test == runs[i]->test && d.run == runs[i]->run) d.specimen_scale = scales.at(i);
 }
 
 FitCurve FitContext::curve_record(const RunData& d, const std::string& role, const Eigen::VectorXd& simulated) {

@@ -41,6 +41,12 @@ struct RunData {
   /// (OffsetSearch::turned_angle, docs/effects/misalignment.md); the test's nominal angle
   /// while empty.
   std::optional<double> strip_angle_deg;
+  /// The run's specimen scale s_r once a fit with `repeats.scale: per-run` has profiled it
+  /// (core/specimen_scale.hpp): its simulated forces are s_r times the strip's; 1 otherwise.
+  double specimen_scale = 1;
+  /// The measured forces in the geometric-mean specimen's terms, p̆ / s_r (what a search with
+  /// the run's scale held compares the strip's forces with).
+  Eigen::VectorXd unscaled_force_N() const { return force_N / specimen_scale; }
 };
 RunData measured_points(const TensileTest& test, const TensileRun& run, const FitDataSelection& data);
 /// As measured_points, but the whole path in file order: the loading branch's points, then
@@ -82,6 +88,8 @@ struct CurveStage {
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t);
 double mean(const std::vector<double>& v);
+/// exp(mean(log v)) of positive values (0 for none).
+double geometric_mean(const std::vector<double>& v);
 /// The mean of the first n runs' average relative errors (model.md §8).
 double mean_run_error(const FitObjective& objective, size_t n);
 
@@ -153,12 +161,22 @@ class FitContext {
   struct CurveFit {
     double error = 0;
     bool ok = false;
+    std::vector<double> scales;  ///< the runs' profiled specimen scales (runs_for order; all 1 without)
   };
   /// Fits `stage`'s free parameters of *p to its runs at `level` (Eq. 3), records it; `refining`:
-  /// a refit from a converged solution of the same degree, with the ladder's limits.
+  /// a refit from a converged solution of the same degree, with the ladder's limits. The
+  /// caller that keeps *p keeps the result's scales (keep_scales).
   CurveFit fit_curve(const CurveStage& stage, int level, MaterialParameters* p, bool refining = false);
   /// A fit or validation run's curve record with its simulated forces.
   static FitCurve curve_record(const RunData& d, const std::string& role, const Eigen::VectorXd& simulated);
+
+  // ---- the repeat scatter (`repeats.scale`, core/specimen_scale.hpp) ----
+  /// The scale groups of an objective whose first runs.size() predictors predict these runs'
+  /// forces (one group per test; none after them); empty when the config models no scatter.
+  std::vector<int> scale_groups(const std::vector<const RunData*>& runs, size_t predictors) const;
+  /// Keeps the first runs.size() of `scales` (an objective's profiled scales) as those fit
+  /// runs' RunData::specimen_scale; nothing when the config models no scatter.
+  void keep_scales(const std::vector<const RunData*>& runs, const std::vector<double>& scales);
 
  private:
   const Dataset& dataset_;

@@ -104,7 +104,10 @@ double small_strain_membrane_modulus(const RunData& d) {
 
 /// §5.3's start: the dataset's density and thickness, linear curves, and each term's
 /// stiffness from the small-strain slopes of its stage's runs (MembraneTerm::slope_factor), or
-/// a fraction of a11 when no stage of the protocol has a test for it; a12 tied (§5.2).
+/// a fraction of a11 when no stage of the protocol has a test for it; a12 tied (§5.2). The
+/// runs' slopes are averaged arithmetically, or geometrically when each run has its own
+/// specimen scale (`repeats.scale: per-run`: the fit's stiffness is then the geometric-mean
+/// specimen's, core/specimen_scale.hpp).
 void start_from_slopes(FitContext& context) {
   MaterialParameters& p = context.params;
   p.density_kg_m2 = 1e-3 * context.dataset().areal_density_g_m2;
@@ -117,8 +120,10 @@ void start_from_slopes(FitContext& context) {
       if (stage.term == &term && moduli.empty())
         for (const RunData* d : context.runs_for(stage.angle_deg))
           moduli.push_back(small_strain_membrane_modulus(*d) / tau);
-    p.*(term.stiffness_member) =
-        moduli.empty() ? term.fraction_of_a11_without_test * p.a11_Pa : term.slope_factor * mean(moduli);
+    const bool per_run = context.config().repeats.scale == SpecimenScale::PerRun;
+    p.*(term.stiffness_member) = moduli.empty() ? term.fraction_of_a11_without_test * p.a11_Pa
+                                 : per_run      ? term.slope_factor * geometric_mean(moduli)
+                                                : term.slope_factor * mean(moduli);
   }
   p.a12_Pa = MaterialParameters::tied_a12(p.a11_Pa, p.a22_Pa);
   context.note(fmt::format("initial slopes: a11 {:.4g} Pa, a22 {:.4g} Pa, G12 {:.4g} Pa (tau {:.3g} mm)", p.a11_Pa,

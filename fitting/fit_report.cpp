@@ -60,6 +60,7 @@ json curve_json(const FitCurve& c) {
           {"role", c.role},
           {"degree", c.degree},
           {"delta_theta_deg", c.delta_theta_deg},
+          {"specimen_scale", c.specimen_scale},
           {"avg_rel_error", c.avg_rel_error},
           {"avg_rel_error_without_offset", c.avg_rel_error_without_offset},
           {"extension_mm", c.extension_mm},
@@ -166,12 +167,17 @@ std::string report_markdown(const FitReport& r) {
   md << "## Fit errors (paper Table 3)\n\nAverage relative error Σ|p̂ − p̆| / Σ|p̆| (model.md §8) at "
         "the finest resolution";
   const bool turned = std::any_of(r.fit.begin(), r.fit.end(), [](const FitCurve& c) { return c.delta_theta_deg != 0; });
-  md << (turned ? ", each strip at its angle offset Δθ (misalignment effect-fit).\n\n| test | angle | run | Δθ | degree | "
-                  "error |\n|---|---|---|---|---|---|\n"
-                : ".\n\n| test | angle | run | degree | error |\n|---|---|---|---|---|\n");
+  const bool scaled = std::any_of(r.fit.begin(), r.fit.end(), [](const FitCurve& c) { return c.specimen_scale != 1; });
+  md << (turned ? ", each strip at its angle offset Δθ (misalignment effect-fit)" : "")
+     << (scaled ? ", each run's forces times its specimen scale s (repeats.scale: per-run; a test's scales have "
+                  "geometric mean 1)"
+                : "")
+     << ".\n\n| test | angle | run | " << (turned ? "Δθ | " : "") << (scaled ? "s | " : "") << "degree | error |\n|"
+     << std::string(turned ? "---|" : "") << (scaled ? "---|" : "") << "---|---|---|---|---|\n";
   for (const auto& c : r.fit)
-    md << fmt::format("| {} | {:g}° | {} | {}{} | {:.2f} % |\n", c.label, c.angle_deg, c.run,
-                      turned ? fmt::format("{:+.2f}° | ", c.delta_theta_deg) : "", c.degree, 100 * c.avg_rel_error);
+    md << fmt::format("| {} | {:g}° | {} | {}{}{} | {:.2f} % |\n", c.label, c.angle_deg, c.run,
+                      turned ? fmt::format("{:+.2f}° | ", c.delta_theta_deg) : "",
+                      scaled ? fmt::format("{:.4f} | ", c.specimen_scale) : "", c.degree, 100 * c.avg_rel_error);
   md << "\n## Drape (paper Table 4)\n\nChord angle simulated at the measured overhang (41.5° measured), "
         "and the simulated overhang at 41.5°.\n\n| test | angle | measured overhang | chord angle | "
         "overhang at 41.5° |\n|---|---|---|---|---|\n";

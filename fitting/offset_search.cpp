@@ -57,9 +57,9 @@ void OffsetSearch::sample(const FitContext& context, const std::vector<const Run
   const auto simulated = curves_.simulate(context, requests, level, angle_derivative);
   for (size_t r = 0; r < wanted.size(); ++r) {
     if (!simulated[r]) continue;
-    const RunData& d = *runs[wanted[r].first];
+    const Eigen::VectorXd measured = runs[wanted[r].first]->unscaled_force_N();
     (*samples)[wanted[r].first].push_back(
-        {wanted[r].second, (simulated[r]->force_N - d.force_N).cwiseAbs().sum() / d.force_N.cwiseAbs().sum(),
+        {wanted[r].second, (simulated[r]->force_N - measured).cwiseAbs().sum() / measured.cwiseAbs().sum(),
          *simulated[r]});
   }
 }
@@ -106,7 +106,8 @@ double OffsetSearch::next_offset(const RunData& d, const std::vector<Sample>& sa
   const double max = options_.max_offset_deg;
   if (samples.size() == 1) {  // the probe: the linearised step, or ±kProbeDeg
     const Sample& nominal = samples.front();
-    const double step = linearised_l1_minimiser(nominal.simulated.force_N, nominal.simulated.dforce_dangle, d.force_N);
+    const double step =
+        linearised_l1_minimiser(nominal.simulated.force_N, nominal.simulated.dforce_dangle, d.unscaled_force_N());
     const double probe = std::min(kProbeDeg, max);
     const double rounded = on_grid(step);
     const bool below_grid = std::abs(rounded) < kModelGridDeg;  // rounds to the nominal angle
@@ -119,7 +120,7 @@ double OffsetSearch::next_offset(const RunData& d, const std::vector<Sample>& sa
     if (!below_grid && std::abs(rounded) <= probe) return rounded;
     return step < 0 ? -probe : probe;
   }
-  return on_grid(model_minimiser(force_model(samples), d.force_N));
+  return on_grid(model_minimiser(force_model(samples), d.unscaled_force_N()));
 }
 
 double OffsetSearch::unconstrained_squared_offset(const RunData& d, const std::vector<Sample>& samples) {
@@ -128,7 +129,7 @@ double OffsetSearch::unconstrained_squared_offset(const RunData& d, const std::v
   const Sample& last = samples.back();
   const double v = last.offset_deg * last.offset_deg;
   return linearised_l1_minimiser(nominal.simulated.force_N, (last.simulated.force_N - nominal.simulated.force_N) / v,
-                                 d.force_N);
+                                 d.unscaled_force_N());
 }
 
 std::vector<std::vector<OffsetSearch::Sample>> OffsetSearch::search(const FitContext& context,

@@ -126,9 +126,11 @@ class EffectFit final : public FitStage {
     ParameterMap::Options map_options;
     map_options.ranges = ranges_of(parameters);
 
+    std::vector<const RunData*> force_runs;
+    for (const RunData& d : runs_) force_runs.push_back(&d);
     FitEffect result = effect_record(context, level, predictors);
-    result.error_without = error_at_neutral(context, *configured, effect_free, map_options, predictors);
-    result.error_with = fit_free(context, free, map_options, predictors, result.resolution, t);
+    result.error_without = error_at_neutral(context, *configured, effect_free, map_options, predictors, force_runs);
+    result.error_with = fit_free(context, free, map_options, predictors, force_runs, result.resolution, t);
     for (const EffectParameter& p : effect_parameters({context.params.effects[index]}, context.registry()))
       result.parameters.push_back({p.name, p.unit, p.value, p.lower, p.upper});
     finish(context, std::move(result), out);
@@ -164,12 +166,15 @@ class EffectFit final : public FitStage {
   }
 
   // Fits `free` entries of context.params to `predictors` with the config's optimiser, records
-  // the stage's row and returns the runs' mean error at the optimum.
+  // the stage's row and returns the runs' mean error at the optimum. The first predictors
+  // predict `force_runs`' forces, each with its specimen scale when the config models one.
   double fit_free(FitContext& context, const std::vector<std::string>& free, const ParameterMap::Options& map_options,
-                  const std::vector<std::shared_ptr<Predictor>>& predictors, const std::string& resolution,
+                  const std::vector<std::shared_ptr<Predictor>>& predictors,
+                  const std::vector<const RunData*>& force_runs, const std::string& resolution,
                   Clock::time_point t) const {
     ParameterMap map(context.params, free, map_options);
     FitObjective objective(map, predictors);
+    objective.set_scale_groups(context.scale_groups(force_runs, predictors.size()));
     objective.set_progress([&](const IterationRecord& it, const Eigen::VectorXd&) {
       context.say(1, fmt::format("  effect {} it {:3d}: eps {:.4e} |g| {:.2e}", options_.effect, it.iteration,
                                  it.value, it.gradient_norm));
@@ -180,6 +185,7 @@ class EffectFit final : public FitStage {
       throw std::runtime_error("effect-fit " + options_.effect + ": the optimiser's final point could not be evaluated: " +
                                objective.last_failure());
     context.params = map.parameters(r.x);
+    context.keep_scales(force_runs, objective.scales());
     const double error = mean_run_error(objective, predictors.size());
     context.record_stage("effect " + options_.effect, resolution, 0, error, *optimizer, r, objective, t);
     return error;
@@ -228,7 +234,7 @@ class EffectFit final : public FitStage {
       resolution = resolution_at(context, level);
       std::vector<std::string> free;
       append_curve_parameters(context, &free);
-      error_with = fit_free(context, free, {}, predictors, resolution, t);
+      error_with = fit_free(context, free, {}, predictors, fixed, resolution, t);
       report_offsets(context, round, fixed);
     }
     FitEffect result = effect_record(context, level, predictors);
@@ -349,7 +355,8 @@ class EffectFit final : public FitStage {
   // The runs' mean error with the effect at its neutral values (the schema defaults).
   double error_at_neutral(const FitContext& context, const ComponentChoice& configured,
                           const std::vector<std::string>& free, const ParameterMap::Options& map_options,
-                          const std::vector<std::shared_ptr<Predictor>>& predictors) const {
+                          const std::vector<std::shared_ptr<Predictor>>& predictors,
+                          const std::vector<const RunData*>& force_runs) const {
     MaterialParameters neutral = context.params;
     for (ComponentChoice& c : neutral.effects)
       if (c.name == configured.name)
@@ -357,6 +364,7 @@ class EffectFit final : public FitStage {
                                     nullptr);
     ParameterMap map(neutral, free, map_options);
     FitObjective objective(map, predictors);
+    objective.set_scale_groups(context.scale_groups(force_runs, predictors.size()));
     objective.evaluate(map.initial_x(), nullptr);
     return mean_run_error(objective, predictors.size());
   }

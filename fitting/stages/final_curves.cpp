@@ -44,8 +44,9 @@ class FinalCurves final : public FitStage {
         context.note("final curve of " + FitContext::run_label(d) + " did not converge");
         continue;
       }
-      FitCurve c = FitContext::curve_record(d, "fit", *forces[r]);
+      FitCurve c = FitContext::curve_record(d, "fit", d.specimen_scale * *forces[r]);
       c.delta_theta_deg = FitContext::strip_offset(d);
+      c.specimen_scale = d.specimen_scale;
       if (const CurveStage* stage = context.fitted_curve_at(d.test->angle_deg))
         c.degree = (context.params.*(stage->term->curve_member)).degree();
       out.fit.push_back(c);

@@ -84,9 +84,10 @@ class ResolutionLadder final : public FitStage {
       for (const CurveStage* stage : open) {
         const auto t = Clock::now();
         MaterialParameters refined = context.params;
-        if (!context.fit_curve(*stage, level, &refined, true).ok)
-          throw std::runtime_error("stage " + stage->label + ": fit failed at level " + std::to_string(level));
+        const FitContext::CurveFit fit = context.fit_curve(*stage, level, &refined, true);
+        if (!fit.ok) throw std::runtime_error("stage " + stage->label + ": fit failed at level " + std::to_string(level));
         context.params = refined;
+        context.keep_scales(context.runs_for(stage->angle_deg), fit.scales);
         out.timing_s.emplace_back(stage->label + " (level " + std::to_string(level) + ")", seconds_since(t));
         const Snapshot now = snapshot(context, *stage, level);
         const auto before = previous.find(stage->label);

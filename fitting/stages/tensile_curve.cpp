@@ -166,6 +166,7 @@ class TensileCurveStage final : public FitStage {
     context.note(fmt::format("{}: degree {} chosen (error {:.2f} % at {}, target {:.1f} %)", stage_.label,
                              curve_of(best).degree(), 100 * best_result.error, where, 100 * target));
     context.params = best;
+    context.keep_scales(context.runs_for(stage_.angle_deg), best_result.scales);
   }
 
   /// Candidate exponents of the raised term (§5.4); the plain start's is max(4 α_max, 8).
@@ -217,6 +218,7 @@ class TensileCurveStage final : public FitStage {
       for (const RunData* d : runs) full.push_back(context.tensile_experiment(*d, options_.level, candidates[i]));
       ParameterMap map(candidates[i], curve_only);
       FitObjective objective(map, full);
+      objective.set_scale_groups(context.scale_groups(runs, full.size()));
       const double value = objective.evaluate(map.initial_x(), nullptr);
       scored[i] = {std::isfinite(value) ? value : std::numeric_limits<double>::infinity(), candidates[i]};
     });
