@@ -303,6 +303,22 @@ bool FitObjective::compute(const Eigen::VectorXd& x, bool want_jacobian) {
   return std::isfinite(r.sum());
 }
 
+Eigen::MatrixXd FitObjective::scale_columns() const {
+  std::vector<int> grouped;
+  for (size_t i = 0; i < scale_groups_.size(); ++i)
+    if (scale_groups_[i] >= 0) grouped.push_back(static_cast<int>(i));
+  Eigen::MatrixXd columns = Eigen::MatrixXd::Zero(num_residuals(), static_cast<Eigen::Index>(grouped.size()));
+  int row = 0, column = 0;
+  for (size_t i = 0; i < predictors_.size(); ++i) {
+    const Eigen::VectorXd& measured = predictors_[i]->measured();
+    if (column < columns.cols() && grouped[static_cast<size_t>(column)] == static_cast<int>(i))
+      columns.col(column++).segment(row, measured.size()) =
+          std::sqrt(weights_[i]) * predictions_[i].cwiseQuotient(measured);
+    row += static_cast<int>(measured.size());
+  }
+  return columns;
+}
+
 double FitObjective::evaluate(const Eigen::VectorXd& x, Eigen::VectorXd* gradient) {
   if (!compute(x, gradient != nullptr)) return std::numeric_limits<double>::quiet_NaN();
   if (gradient) *gradient = 2.0 * cache_j_.transpose() * cache_r_;

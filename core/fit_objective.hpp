@@ -137,6 +137,9 @@ class FitObjective : public Problem {
   void set_scale_groups(std::vector<int> groups);
   /// Per-predictor scale at the last successful evaluation (1 outside a group).
   const std::vector<double>& scales() const { return scales_; }
+  /// The residuals' derivatives in each grouped predictor's log-scale at the last successful
+  /// evaluation, √w s_r p̂_r/p̆_r on run r's rows: num_residuals() × (predictors in a group).
+  Eigen::MatrixXd scale_columns() const;
   /// Per-predictor predictions at the last successful evaluation, times their scales (what
   /// the residuals compare with the measurements; for reports).
   const std::vector<Eigen::VectorXd>& last_predictions() const { return predictions_; }

@@ -13,6 +13,7 @@
 #include "core/fit_objective.hpp"
 #include "core/specimen_scale.hpp"
 #include "tests/support/finite_difference.hpp"
+#include "tests/support/toy_predictor.hpp"
 #include "tests/support/test_materials.hpp"
 
 namespace twill {
@@ -79,37 +80,6 @@ TEST(SpecimenScale, OneRunOrNoPositiveFitKeepsOne) {
   EXPECT_EQ(profiled_group_scales(runs_of(negative, {1, 1})), std::vector<double>({1.0, 1.0}));
 }
 
-// A predictor nonlinear in its parameters, so that central differences show truncation error:
-// p_i = τ a11 e_i + τ² a22 e_i² (units immaterial here).
-class ToyPredictor final : public Predictor {
- public:
-  ToyPredictor(std::string label, Eigen::VectorXd strains, Eigen::VectorXd measured)
-      : label_(std::move(label)), e_(std::move(strains)), measured_(std::move(measured)) {}
-  std::string label() const override { return label_; }
-  const Eigen::VectorXd& measured() const override { return measured_; }
-  bool predict(const MaterialParameters& k, const std::vector<int>& flat, Eigen::VectorXd* values,
-               Eigen::MatrixXd* jacobian, std::string*) override {
-    const double t = k.thickness_m, a = k.a11_Pa, b = k.a22_Pa;
-    const Eigen::ArrayXd e = e_.array(), e2 = e * e;
-    *values = (t * a * e + t * t * b * e2).matrix();
-    if (jacobian) {
-      jacobian->setZero(e_.size(), static_cast<Eigen::Index>(flat.size()));
-      for (size_t j = 0; j < flat.size(); ++j) {
-        const auto col = static_cast<Eigen::Index>(j);
-        if (flat[j] == FlatLayout::kThickness) jacobian->col(col) = (a * e + 2 * t * b * e2).matrix();
-        if (flat[j] == FlatLayout::kA11) jacobian->col(col) = (t * e).matrix();
-        if (flat[j] == FlatLayout::kA22) jacobian->col(col) = (t * t * e2).matrix();
-      }
-    }
-    return true;
-  }
-  long equilibrium_solves() const override { return 0; }
-
- private:
-  std::string label_;
-  Eigen::VectorXd e_, measured_;
-};
-
 // Three runs of one test (one group) and one of another (its own group of one), measured from
 // a material the start is not, with a scatter per run.
 FitObjective scaled_objective(bool with_groups) {
@@ -121,12 +91,12 @@ FitObjective scaled_objective(bool with_groups) {
   std::vector<std::shared_ptr<Predictor>> predictors;
   const std::vector<double> scatter = {1.12, 0.93, 1.05, 0.97};
   for (size_t r = 0; r < scatter.size(); ++r) {
-    ToyPredictor generator("generator", e, Eigen::VectorXd::Ones(e.size()));
+    testing::ToyPredictor generator("generator", e, Eigen::VectorXd::Ones(e.size()));
     Eigen::VectorXd measured;
     generator.predict(truth, {}, &measured, nullptr, nullptr);
     measured *= scatter[r];
     measured[static_cast<Eigen::Index>(r)] *= 1.02;  // a shape no scale removes
-    predictors.push_back(std::make_shared<ToyPredictor>("run " + std::to_string(r), e, measured));
+    predictors.push_back(std::make_shared<testing::ToyPredictor>("run " + std::to_string(r), e, measured));
   }
   ParameterMap::Options options;
   options.tie_a12 = false;

@@ -1,0 +1,53 @@
+#pragma once
+// The score (Lagrange-multiplier) test of a candidate extension at a baseline fit (issue #16's
+// "diagnose and rank"; docs/discover-design.md §3): does freeing the candidate's parameters θ_e
+// from their neutral values lower Eq. 3 by more than the data's noise explains — judged at the
+// baseline alone, without fitting the candidate.
+//
+// At the baseline optimum x̂ (the candidate at its neutral value), with r the residuals and
+// J = [J_b, J_e] the Jacobian in the baseline's free unknowns and the candidate's:
+//
+//     g = J_eᵀ r                        (½ the gradient of ε in θ_e)
+//     P = I − J_b (J_bᵀ J_b)⁺ J_bᵀ      (what the baseline can absorb, projected out)
+//     I_e = J_eᵀ P J_e                  (the candidate's information, net of the baseline)
+//     T·σ² = gᵀ I_e⁺ g                  (g is projected too: P r = r − J_b(...)J_bᵀ r)
+//     σ² = (‖P r‖² − T σ²) / (m − n_b − d)   (the noise neither explains; estimated from the
+//                                        baseline's residual alone it would hold the
+//                                        candidate's signal and cap T below m)
+//
+// Under iid Gaussian residuals, no effect and a model linear near x̂, T/d ~ F(d, m − n_b − d),
+// d = rank I_e (T → χ²(d) as m grows); p_value_iid is that F tail. The signature of the
+// candidate is the columns P J_e: what its parameters change in the predictions that the
+// baseline's cannot. The specimen scales (core/specimen_scale.hpp) are baseline directions
+// too: their columns (s_r p̂_r/p̆_r on run r's rows) join J_b, so a candidate that only
+// rescales a run scores nothing.
+//
+// Calibration: with specimen scatter and correlated residuals along a curve the χ² tail is not
+// the null distribution (issue #16: an iid criterion "finds" effects in null data about half
+// the time with 15 % scatter); p_value_iid is reported as what it is, and the calibrated test
+// compares T with its distribution over data simulated from the baseline.
+#include <Eigen/Core>
+
+#include "core/fit_objective.hpp"
+
+namespace twill {
+
+struct ScoreTest {
+  double statistic = 0;    ///< T
+  int dof = 0;             ///< d: the rank of the candidate's net information
+  double sigma2 = 0;       ///< σ², per residual
+  double p_value_iid = 1;  ///< the F(d, m − n_b − d) upper tail of T/d (uncalibrated; see above)
+  Eigen::MatrixXd signature;  ///< P J_e: m × (candidate's unknowns), residual units
+};
+
+/// The score test of the unknowns n_baseline… of `objective` (the candidate's) at x, where the
+/// first n_baseline unknowns are the baseline's, fitted there. Evaluates the objective's
+/// residuals and Jacobian once; throws std::runtime_error when the evaluation fails.
+ScoreTest score_test(FitObjective& objective, const Eigen::VectorXd& x, int n_baseline);
+
+/// The upper tail P(χ²(dof) > t) (regularised upper incomplete gamma Q(dof/2, t/2)).
+double chi_squared_upper_tail(double t, int dof);
+/// The upper tail P(F(d1, d2) > f) (regularised incomplete beta).
+double f_upper_tail(double f, int d1, int d2);
+
+}  // namespace twill

@@ -1,0 +1,126 @@
+// The score test of a candidate extension at a baseline fit (core/score_test.hpp): the χ² and F tails
+// against tabulated quantiles, the test's size under its own assumptions (iid noise, no
+// effect: p < 5 % in about 5 % of replicates), its power when the candidate's term is in the
+// data, and a candidate that only rescales runs scoring nothing once the specimen scales are
+// in the baseline.
+#include <gtest/gtest.h>
+
+#include <Eigen/Cholesky>
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "core/score_test.hpp"
+#include "tests/support/test_materials.hpp"
+#include "tests/support/toy_predictor.hpp"
+
+namespace twill {
+namespace {
+
+TEST(ScoreTest, ChiSquaredTailMatchesTabulatedQuantiles) {
+  // 95 % and 99.9 % quantiles (any χ² table); dof 2 is exp(−t/2) exactly.
+  EXPECT_NEAR(chi_squared_upper_tail(3.841459, 1), 0.05, 1e-6);
+  EXPECT_NEAR(chi_squared_upper_tail(10.827566, 1), 0.001, 1e-8);
+  EXPECT_NEAR(chi_squared_upper_tail(9.487729, 4), 0.05, 1e-6);
+  EXPECT_NEAR(chi_squared_upper_tail(18.307038, 10), 0.05, 1e-6);
+  EXPECT_NEAR(chi_squared_upper_tail(0.7, 2), std::exp(-0.35), 1e-14);
+  EXPECT_NEAR(chi_squared_upper_tail(30.0, 2), std::exp(-15.0), 1e-20);
+  EXPECT_EQ(chi_squared_upper_tail(0.0, 3), 1.0);
+  // F: 95 % quantiles F(1, 22) = 4.3009, F(3, 10) = 3.7083; F(2, d2) has the closed form
+  // (1 + 2f/d2)^(−d2/2).
+  EXPECT_NEAR(f_upper_tail(4.300950, 1, 22), 0.05, 1e-6);
+  EXPECT_NEAR(f_upper_tail(3.708265, 3, 10), 0.05, 1e-6);
+  EXPECT_NEAR(f_upper_tail(1.7, 2, 9), std::pow(1 + 2 * 1.7 / 9, -4.5), 1e-13);
+  EXPECT_EQ(f_upper_tail(0.0, 1, 5), 1.0);
+}
+
+const Eigen::VectorXd kStrains = Eigen::VectorXd::LinSpaced(12, 0.01, 0.12);
+
+// Runs of p = τ a11 e + τ² a22 e² measured from `truth` with relative Gaussian noise.
+std::vector<std::shared_ptr<Predictor>> noisy_runs(const MaterialParameters& truth, int runs, double noise,
+                                                   std::mt19937_64* engine, const std::vector<double>& scatter = {}) {
+  std::normal_distribution<double> normal(0.0, noise);
+  std::vector<std::shared_ptr<Predictor>> out;
+  for (int r = 0; r < runs; ++r) {
+    testing::ToyPredictor generator("generator", kStrains, Eigen::VectorXd::Ones(kStrains.size()));
+    Eigen::VectorXd measured;
+    generator.predict(truth, {}, &measured, nullptr, nullptr);
+    for (Eigen::Index i = 0; i < measured.size(); ++i)
+      measured[i] *= (scatter.empty() ? 1.0 : scatter[static_cast<size_t>(r)]) * (1.0 + normal(*engine));
+    out.push_back(std::make_shared<testing::ToyPredictor>("run " + std::to_string(r), kStrains, measured));
+  }
+  return out;
+}
+
+MaterialParameters start() {
+  MaterialParameters k = testing::canvas_degree2();
+  k.a22_Pa = 0.5 * k.a11_Pa / k.thickness_m;  // the quadratic term: a few % of the force at the largest strain
+  return k;
+}
+
+// The baseline (a11 free) fitted exactly (its residuals are linear in it: one Gauss–Newton
+// step), then the score of freeing a22 at its start value.
+ScoreTest score_of_a22(const std::vector<std::shared_ptr<Predictor>>& runs) {
+  ParameterMap::Options options;
+  options.tie_a12 = false;
+  FitObjective baseline(ParameterMap(start(), {"a11_Pa"}, options), runs);
+  Eigen::VectorXd x = baseline.map().initial_x(), r;
+  Eigen::MatrixXd j;
+  baseline.residuals(x, &r, &j);
+  x -= (j.transpose() * j).ldlt().solve(j.transpose() * r);
+  FitObjective candidate(ParameterMap(baseline.map().parameters(x), {"a11_Pa", "a22_Pa"}, options), runs);
+  return score_test(candidate, candidate.map().initial_x(), 1);
+}
+
+TEST(ScoreTest, HasItsNominalSizeUnderIidNoiseWithoutTheEffect) {
+  std::mt19937_64 engine(11);
+  constexpr int kReplicates = 400;
+  int rejected = 0;
+  double mean_statistic = 0;
+  for (int k = 0; k < kReplicates; ++k) {
+    const ScoreTest t = score_of_a22(noisy_runs(start(), 2, 0.01, &engine));
+    ASSERT_EQ(t.dof, 1);
+    rejected += t.p_value_iid < 0.05;
+    mean_statistic += t.statistic / kReplicates;
+  }
+  std::printf("[measured] score test, no effect, iid 1 %% noise: %d of %d rejected at 5 %%, mean T %.3f (F(1, 22): "
+              "1.1)\n",
+              rejected, kReplicates, mean_statistic);
+  // Binomial(400, 0.05): 20 ± 4.4; three standard deviations either side.
+  EXPECT_GE(rejected, 7);
+  EXPECT_LE(rejected, 33);
+  EXPECT_NEAR(mean_statistic, 22.0 / 20.0, 0.25);  // the mean of F(1, 22), d2/(d2 − 2); sd over 400 draws ~0.08
+}
+
+TEST(ScoreTest, FindsTheCandidatesTermWhenTheDataHaveIt) {
+  std::mt19937_64 engine(12);
+  MaterialParameters truth = start();
+  truth.a22_Pa *= 3;  // the quadratic term three times as large: 12 % of the force at the largest strain
+  const ScoreTest t = score_of_a22(noisy_runs(truth, 2, 0.01, &engine));
+  std::printf("[measured] score test, quadratic term ×3, 1 %% noise: T %.1f, p %.2e\n", t.statistic, t.p_value_iid);
+  EXPECT_LT(t.p_value_iid, 1e-6);
+  EXPECT_GT(t.signature.norm(), 0.0);
+}
+
+TEST(ScoreTest, ACandidateThatOnlyRescalesRunsScoresNothingWithSpecimenScales) {
+  // The toy's density multiplies every prediction: with the runs' specimen scales in the
+  // baseline it has no direction of its own; without them it has one.
+  std::mt19937_64 engine(13);
+  const auto runs = noisy_runs(start(), 3, 0.01, &engine, {1.1, 0.95, 1 / (1.1 * 0.95)});
+  ParameterMap::Options options;
+  options.tie_a12 = false;
+  FitObjective objective(ParameterMap(start(), {"a11_Pa", "density_kg_m2"}, options), runs);
+  const ScoreTest unscaled = score_test(objective, objective.map().initial_x(), 1);
+  objective.set_scale_groups({0, 0, 0});
+  const ScoreTest scaled = score_test(objective, objective.map().initial_x(), 1);
+  EXPECT_EQ(unscaled.dof, 1);
+  EXPECT_EQ(scaled.dof, 0);
+  EXPECT_EQ(scaled.statistic, 0.0);
+  EXPECT_EQ(scaled.p_value_iid, 1.0);
+}
+
+}  // namespace
+}  // namespace twill
