@@ -1,5 +1,6 @@
 #include "fitting/offset_search.hpp"
 
+#include <Eigen/QR>
 #include <algorithm>
 #include <cmath>
 
@@ -59,7 +60,7 @@ void OffsetSearch::sample(const FitContext& context, const std::vector<const Run
     if (!simulated[r]) continue;
     const Eigen::VectorXd measured = runs[wanted[r].first]->unscaled_force_N();
     (*samples)[wanted[r].first].push_back(
-        {wanted[r].second, (simulated[r]->force_N - measured).cwiseAbs().sum() / measured.cwiseAbs().sum(),
+        {wanted[r].second, misfit(simulated[r]->force_N, measured, options_.free_scale) / measured.cwiseAbs().sum(),
          *simulated[r]});
   }
 }
@@ -83,15 +84,21 @@ OffsetSearch::ForceModel OffsetSearch::force_model(const std::vector<Sample>& sa
   return m;
 }
 
+double OffsetSearch::misfit(const Eigen::VectorXd& forces, const Eigen::VectorXd& measured, bool free_scale) {
+  const double s = free_scale ? linearised_l1_minimiser(Eigen::VectorXd::Zero(forces.size()), forces, measured) : 1.0;
+  return (s * forces - measured).cwiseAbs().sum();
+}
+
 double OffsetSearch::model_minimiser(const ForceModel& m, const Eigen::VectorXd& measured) const {
   // Candidates by increasing |Δθ|, + before −, a later one taken only when strictly better:
   // on a material axis the model is even and +Δθ is the convention.
   const double max = options_.max_offset_deg;
   const double step = std::max(options_.resolution_deg, kModelGridDeg);
-  double best = 0, best_error = (m.f0 - measured).cwiseAbs().sum();
+  const bool free = options_.free_scale;
+  double best = 0, best_error = misfit(m.f0, measured, free);
   for (double x = step; x <= max + 1e-12; x += step)
     for (const double candidate : {x, -x}) {
-      const double error = (m.f0 + candidate * m.f1 + candidate * candidate * m.f2 - measured).cwiseAbs().sum();
+      const double error = misfit(m.f0 + candidate * m.f1 + candidate * candidate * m.f2, measured, free);
       if (error < best_error) best = candidate, best_error = error;
     }
   return best;
@@ -106,8 +113,10 @@ double OffsetSearch::next_offset(const RunData& d, const std::vector<Sample>& sa
   const double max = options_.max_offset_deg;
   if (samples.size() == 1) {  // the probe: the linearised step, or ±kProbeDeg
     const Sample& nominal = samples.front();
-    const double step =
-        linearised_l1_minimiser(nominal.simulated.force_N, nominal.simulated.dforce_dangle, d.unscaled_force_N());
+    Eigen::VectorXd target = d.unscaled_force_N();
+    if (options_.free_scale)  // the measured forces in the nominal strip's best scale
+      target /= linearised_l1_minimiser(Eigen::VectorXd::Zero(target.size()), nominal.simulated.force_N, target);
+    const double step = linearised_l1_minimiser(nominal.simulated.force_N, nominal.simulated.dforce_dangle, target);
     const double probe = std::min(kProbeDeg, max);
     const double rounded = on_grid(step);
     const bool below_grid = std::abs(rounded) < kModelGridDeg;  // rounds to the nominal angle
@@ -123,11 +132,18 @@ double OffsetSearch::next_offset(const RunData& d, const std::vector<Sample>& sa
   return on_grid(model_minimiser(force_model(samples), d.unscaled_force_N()));
 }
 
-double OffsetSearch::unconstrained_squared_offset(const RunData& d, const std::vector<Sample>& samples) {
+double OffsetSearch::unconstrained_squared_offset(const RunData& d, const std::vector<Sample>& samples,
+                                                  bool free_scale) {
   if (samples.size() < 2) return 0.0;
   const Sample& nominal = samples.front();
   const Sample& last = samples.back();
   const double v = last.offset_deg * last.offset_deg;
+  if (free_scale) {  // F̆ ≈ a F0 + b D, D = (F(v) − F0)/v: v = b/a
+    Eigen::MatrixXd basis(nominal.simulated.force_N.size(), 2);
+    basis << nominal.simulated.force_N, (last.simulated.force_N - nominal.simulated.force_N) / v;
+    const Eigen::Vector2d ab = basis.colPivHouseholderQr().solve(d.unscaled_force_N());
+    return ab[0] > 0 ? ab[1] / ab[0] : 0.0;
+  }
   return linearised_l1_minimiser(nominal.simulated.force_N, (last.simulated.force_N - nominal.simulated.force_N) / v,
                                  d.unscaled_force_N());
 }

@@ -206,7 +206,9 @@ class EffectFit final : public FitStage {
       return;
     }
     const std::vector<const RunData*> fixed(runs.begin(), runs.end());
-    OffsetSearch search(OffsetSearchOptions{}, context.effects[index]);
+    OffsetSearchOptions search_options;
+    search_options.free_scale = context.config().repeats.scale == SpecimenScale::PerRun;
+    OffsetSearch search(search_options, context.effects[index]);
     std::vector<std::shared_ptr<Predictor>> predictors;
     double error_without = 0, error_with = 0;
     std::string resolution;
@@ -223,7 +225,7 @@ class EffectFit final : public FitStage {
         nominal_errors.push_back(OffsetSearch::nominal(samples[i])->error);
       }
       if (round == 0) error_without = mean(nominal_errors);
-      gauge_offsets(fixed, samples, &offsets);
+      gauge_offsets(fixed, samples, search_options.free_scale, &offsets);
       predictors.clear();
       for (size_t i = 0; i < runs.size(); ++i) {
         runs[i]->strip_angle_deg = search.turned_angle(runs[i]->test->angle_deg, offsets[i]);
@@ -268,7 +270,7 @@ class EffectFit final : public FitStage {
   // is not identified and the offset reported is |Δθ|. Elsewhere a common offset of the
   // test's strips trades against the curve: their mean is set to 0 (a cut has no side).
   static void gauge_offsets(const std::vector<const RunData*>& runs,
-                            const std::vector<std::vector<OffsetSearch::Sample>>& samples,
+                            const std::vector<std::vector<OffsetSearch::Sample>>& samples, bool free_scale,
                             std::vector<double>* offsets) {
     std::map<const TensileTest*, std::vector<size_t>> by_test;
     for (size_t i = 0; i < runs.size(); ++i) by_test[runs[i]->test].push_back(i);
@@ -278,7 +280,7 @@ class EffectFit final : public FitStage {
       if (OffsetSearch::nearly_even(test_samples)) {
         std::vector<double> v;
         for (size_t i : members) {
-          const double unconstrained = OffsetSearch::unconstrained_squared_offset(*runs[i], samples[i]);
+          const double unconstrained = OffsetSearch::unconstrained_squared_offset(*runs[i], samples[i], free_scale);
           v.push_back(unconstrained < 0 ? unconstrained : (*offsets)[i] * (*offsets)[i]);
         }
         const double smallest = *std::min_element(v.begin(), v.end());
