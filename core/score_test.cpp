@@ -152,10 +152,12 @@ ScoreTest score_test(FitObjective& objective, const Eigen::VectorXd& x, int n_ba
   const Eigen::Index remaining = r.size() - q.cols() - out.dof;
   out.sigma2 = remaining > 0 ? (free_residual.squaredNorm() - explained) / static_cast<double>(remaining)
                              : std::numeric_limits<double>::quiet_NaN();
+  if (out.dof > 0 && remaining <= 0) {  // nothing left to judge the noise by
+    out.statistic = out.p_value_iid = std::numeric_limits<double>::quiet_NaN();
+    return out;
+  }
   out.statistic = out.dof > 0 && out.sigma2 > 0 ? explained / out.sigma2 : 0.0;
-  out.p_value_iid = out.dof > 0 && remaining > 0
-                        ? f_upper_tail(out.statistic / out.dof, out.dof, static_cast<int>(remaining))
-                        : 1.0;
+  out.p_value_iid = out.dof > 0 ? f_upper_tail(out.statistic / out.dof, out.dof, static_cast<int>(remaining)) : 1.0;
   return out;
 }
 

@@ -32,6 +32,9 @@
 
 namespace twill {
 
+/// NaN statistic and p-value: the candidate has directions but no residual degree of freedom
+/// is left to estimate the noise (as many observations as the baseline and the candidate have
+/// unknowns, e.g. two ratios on two cantilevers): only held-out data can judge it.
 struct ScoreTest {
   double statistic = 0;    ///< T
   int dof = 0;             ///< d: the rank of the candidate's net information

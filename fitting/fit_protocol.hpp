@@ -24,6 +24,7 @@
 // in order, with each stage's time. docs/fitting.md has the details and the measurements.
 #include <Eigen/Core>
 #include <functional>
+#include <limits>
 #include <map>
 #include <string>
 #include <vector>
@@ -116,6 +117,12 @@ struct FitEffect {
   int runs = 0;            ///< runs fitted
   int points = 0;          ///< observables fitted
   double error_without = 0, error_with = 0;  ///< mean of the runs' average relative errors
+  /// The score test at the effect's neutral values before it is fitted (core/score_test.hpp;
+  /// the p-value assumes iid residuals, uncalibrated with specimen scatter); NaN when not
+  /// evaluated (an angle-offset effect, or the baseline failed).
+  double score = std::numeric_limits<double>::quiet_NaN();
+  int score_dof = 0;
+  double score_p_value_iid = 1;
   std::vector<FitEffectParameter> parameters;
 };
 

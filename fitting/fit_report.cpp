@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -133,7 +134,11 @@ json report_json(const FitReport& r, const Options& config) {
                             {"upper", q.upper}});
     j["effects"].push_back({{"effect", e.effect}, {"resolution", e.resolution}, {"runs", e.runs},
                             {"points", e.points}, {"error_without", e.error_without},
-                            {"error_with", e.error_with}, {"parameters", parameters}});
+                            {"error_with", e.error_with},
+                            // null where not evaluated (json has no NaN)
+                            {"score", std::isfinite(e.score) ? json(e.score) : json(nullptr)},
+                            {"score_dof", e.score_dof}, {"score_p_value_iid", e.score_p_value_iid},
+                            {"parameters", parameters}});
   }
   json timing = json::object();
   for (const auto& [k, v] : r.timing_s) timing[k] = v;
@@ -147,11 +152,17 @@ json report_json(const FitReport& r, const Options& config) {
 std::string effects_markdown(const std::vector<FitEffect>& effects) {
   std::ostringstream md;
   md << "\n## Effects (docs/effects.md)\n\nPer effect-fit stage: the mean average relative error of its "
-        "runs with the effect at its neutral values (the paper's model) and fitted.\n\n| effect | resolution | "
-        "runs | points | error without | error with |\n|---|---|---|---|---|---|\n";
+        "runs with the effect at its neutral values (the paper's model) and fitted; the score test at the neutral "
+        "values before the fit (T, its degrees of freedom d, and the p-value if the residuals were iid — with "
+        "specimen scatter and correlated points along a curve it is not calibrated; core/score_test.hpp; — where it "
+        "was not evaluated: an angle-offset effect, or no residual left to judge the noise by).\n\n"
+        "| effect | resolution | runs | points | error without | error with | score T (d) | p (iid) |\n"
+        "|---|---|---|---|---|---|---|---|\n";
   for (const FitEffect& e : effects)
-    md << fmt::format("| {} | {} | {} | {} | {:.2f} % | {:.2f} % |\n", e.effect, e.resolution, e.runs, e.points,
-                      100 * e.error_without, 100 * e.error_with);
+    md << fmt::format("| {} | {} | {} | {} | {:.2f} % | {:.2f} % | {} | {} |\n", e.effect, e.resolution, e.runs,
+                      e.points, 100 * e.error_without, 100 * e.error_with,
+                      std::isfinite(e.score) ? fmt::format("{:.4g} ({})", e.score, e.score_dof) : "—",
+                      std::isfinite(e.score) ? fmt::format("{:.2g}", e.score_p_value_iid) : "—");
   md << "\n| parameter | value | unit | bounds |\n|---|---|---|---|\n";
   for (const FitEffect& e : effects)
     for (const FitEffectParameter& p : e.parameters)

@@ -21,9 +21,11 @@
 #include <algorithm>
 #include <cmath>
 #include <deque>
+#include <limits>
 #include <map>
 
 #include "core/option_binding.hpp"
+#include "core/score_test.hpp"
 #include "fitting/fit_context.hpp"
 #include "fitting/fit_effects.hpp"
 #include "fitting/fit_stage.hpp"
@@ -130,6 +132,7 @@ class EffectFit final : public FitStage {
     for (const RunData& d : runs_) force_runs.push_back(&d);
     FitEffect result = effect_record(context, level, predictors);
     result.error_without = error_at_neutral(context, *configured, effect_free, map_options, predictors, force_runs);
+    score_at_neutral(context, *configured, free, effect_free.size(), map_options, predictors, force_runs, &result);
     result.error_with = fit_free(context, free, map_options, predictors, force_runs, result.resolution, t);
     for (const EffectParameter& p : effect_parameters({context.params.effects[index]}, context.registry()))
       result.parameters.push_back({p.name, p.unit, p.value, p.lower, p.upper});
@@ -354,17 +357,44 @@ class EffectFit final : public FitStage {
     return FitContext::resolution_text(s.cells_across, s.cells_along);
   }
 
-  // The runs' mean error with the effect at its neutral values (the schema defaults).
-  double error_at_neutral(const FitContext& context, const ComponentChoice& configured,
-                          const std::vector<std::string>& free, const ParameterMap::Options& map_options,
-                          const std::vector<std::shared_ptr<Predictor>>& predictors,
-                          const std::vector<const RunData*>& force_runs) const {
+  // The parameters so far with the effect at its neutral values (the schema defaults).
+  static MaterialParameters neutral_params(const FitContext& context, const ComponentChoice& configured) {
     MaterialParameters neutral = context.params;
     for (ComponentChoice& c : neutral.effects)
       if (c.name == configured.name)
         c.options = default_options(context.registry().find_category(registry_category::kEffect)->at(c.name).options,
                                     nullptr);
-    ParameterMap map(neutral, free, map_options);
+    return neutral;
+  }
+
+  // The score test of the effect at the parameters so far with the effect neutral
+  // (core/score_test.hpp): the baseline's directions are the curves freed with it (`free`
+  // after its first n_effect entries, the effect's) and the runs' specimen scales.
+  void score_at_neutral(const FitContext& context, const ComponentChoice& configured,
+                        const std::vector<std::string>& free, size_t n_effect, const ParameterMap::Options& map_options,
+                        const std::vector<std::shared_ptr<Predictor>>& predictors,
+                        const std::vector<const RunData*>& force_runs, FitEffect* result) const {
+    std::vector<std::string> baseline_first(free.begin() + static_cast<std::ptrdiff_t>(n_effect), free.end());
+    baseline_first.insert(baseline_first.end(), free.begin(), free.begin() + static_cast<std::ptrdiff_t>(n_effect));
+    ParameterMap map(neutral_params(context, configured), baseline_first, map_options);
+    FitObjective objective(map, predictors);
+    objective.set_scale_groups(context.scale_groups(force_runs, predictors.size()));
+    try {
+      const ScoreTest t = score_test(objective, map.initial_x(), static_cast<int>(free.size() - n_effect));
+      result->score = t.statistic;
+      result->score_dof = t.dof;
+      result->score_p_value_iid = t.p_value_iid;
+    } catch (const std::runtime_error& e) {
+      result->score = std::numeric_limits<double>::quiet_NaN();  // reported as not evaluated
+    }
+  }
+
+  // The runs' mean error with the effect at its neutral values (the schema defaults).
+  double error_at_neutral(const FitContext& context, const ComponentChoice& configured,
+                          const std::vector<std::string>& free, const ParameterMap::Options& map_options,
+                          const std::vector<std::shared_ptr<Predictor>>& predictors,
+                          const std::vector<const RunData*>& force_runs) const {
+    ParameterMap map(neutral_params(context, configured), free, map_options);
     FitObjective objective(map, predictors);
     objective.set_scale_groups(context.scale_groups(force_runs, predictors.size()));
     objective.evaluate(map.initial_x(), nullptr);

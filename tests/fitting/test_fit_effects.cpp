@@ -5,6 +5,7 @@
 // report carries the effect's table and params.yaml its parameters.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -148,6 +149,15 @@ Options config_with(const std::string& effect, const std::string& stage_options 
   return config;
 }
 
+// The score test at the neutral values (core/score_test.hpp) on data made with the effect on:
+// the effect's signature is in the residuals, far beyond what the leftover explains.
+void expect_significant_score(const FitEffect& e) {
+  std::printf("[measured] %s: score T %.4g (d %d), p (iid) %.2g\n", e.effect.c_str(), e.score, e.score_dof,
+              e.score_p_value_iid);
+  EXPECT_GT(e.score_dof, 0);
+  EXPECT_LT(e.score_p_value_iid, 1e-6);
+}
+
 double fitted(const FitReport& report, const std::string& name) {
   for (const FitEffectParameter& p : report.effects.at(0).parameters)
     if (p.name == name) return p.value;
@@ -177,6 +187,7 @@ TEST(FitWithEffects, HysteresisFromLoadingAndUnloadingRuns) {
               fitted(report, "hysteresis.saturation_strain"));
   // Without friction the unloading rows miss by the gap 2σ_s W: several %.
   EXPECT_GT(e.error_without, 0.01);
+  expect_significant_score(e);
   // With it, the model that made the data: the optimiser's tolerance, not a modelling error.
   EXPECT_LT(e.error_with, 1e-3);
   EXPECT_NEAR(fitted(report, "hysteresis.warp_friction_N_m"), 150.0, 0.02 * 150.0);
@@ -207,6 +218,7 @@ TEST(FitWithEffects, PoissonFromLateralStrains) {
               "r = %.4f\n",
               100 * e.error_without, 100 * e.error_with, fitted(report, "poisson.coupling_ratio"));
   EXPECT_GT(e.error_without, 0.05);  // r = 0.5 narrows the strips visibly more than 0.3
+  expect_significant_score(e);
   EXPECT_LT(e.error_with, 1e-3);
   EXPECT_NEAR(fitted(report, "poisson.coupling_ratio"), 0.3, 1e-3);
   fs::remove_all(folder);
@@ -234,6 +246,10 @@ TEST(FitWithEffects, BendingAnisotropyFromWarpAndWeftCantilevers) {
               1e3 * report.parameters.thickness_m);
   // One thickness cannot bend both strips to 41.5°: the bend stage leaves both off.
   EXPECT_GT(e.error_without, 0.02);
+  // Two chord angles, two ratios: the fit is exact by construction and the score test has no
+  // residual left to judge the noise by (core/score_test.hpp): not evaluated.
+  EXPECT_TRUE(std::isnan(e.score)) << e.score;
+  EXPECT_EQ(e.score_dof, 2);
   EXPECT_LT(e.error_with, 1e-3);
   // What a cantilever identifies is its direction's small-curvature bending stiffness
   // b τ³ a / 12 (τ and equal ratios trade exactly, docs/effects/bending-anisotropy.md; the
