@@ -212,22 +212,21 @@ class EffectFit final : public FitStage {
     OffsetSearchOptions search_options;
     search_options.free_scale = context.config().repeats.scale == SpecimenScale::PerRun;
     OffsetSearch search(search_options, context.effects[index]);
+    const double error_without = error_at_nominal_angles(context, fixed, level);
     std::vector<std::shared_ptr<Predictor>> predictors;
-    double error_without = 0, error_with = 0;
+    double error_with = 0;
     std::string resolution;
     for (int round = 0; round < options_.rounds; ++round) {
       const auto t = Clock::now();
       const auto samples = search.search(context, fixed, level);
-      std::vector<double> offsets, nominal_errors;
+      std::vector<double> offsets;
       for (size_t i = 0; i < runs.size(); ++i) {
         const OffsetSearch::Sample* best = OffsetSearch::best(samples[i]);
         if (!best)
           throw std::runtime_error("effect-fit " + options_.effect + ": " + FitContext::run_label(*runs[i]) +
                                    " did not converge at its nominal angle");
         offsets.push_back(best->offset_deg);
-        nominal_errors.push_back(OffsetSearch::nominal(samples[i])->error);
       }
-      if (round == 0) error_without = mean(nominal_errors);
       gauge_offsets(fixed, samples, search_options.free_scale, &offsets);
       predictors.clear();
       for (size_t i = 0; i < runs.size(); ++i) {
@@ -390,6 +389,22 @@ class EffectFit final : public FitStage {
   }
 
   // The runs' mean error with the effect at its neutral values (the schema defaults).
+  // The fit runs' mean error at their nominal angles with the curves as fitted so far, by the
+  // measure error_with uses (the fit objective's, each run with its profiled scale under
+  // repeats.scale: per-run) — not the offset search's misfit, whose scale is the run's own
+  // unconstrained best one and would flatter the nominal model.
+  static double error_at_nominal_angles(FitContext& context, const std::vector<const RunData*>& runs, int level) {
+    std::vector<std::shared_ptr<Predictor>> predictors;
+    for (const RunData* d : runs) predictors.push_back(context.tensile_experiment(*d, level, context.params));
+    std::vector<std::string> curves;  // evaluated at their values, not fitted
+    append_curve_parameters(context, &curves);
+    ParameterMap map(context.params, curves, {});
+    FitObjective objective(map, predictors);
+    objective.set_scale_groups(context.scale_groups(runs, predictors.size()));
+    objective.evaluate(map.initial_x(), nullptr);
+    return mean_run_error(objective, predictors.size());
+  }
+
   double error_at_neutral(const FitContext& context, const ComponentChoice& configured,
                           const std::vector<std::string>& free, const ParameterMap::Options& map_options,
                           const std::vector<std::shared_ptr<Predictor>>& predictors,
