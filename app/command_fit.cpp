@@ -15,7 +15,6 @@
 
 #include <filesystem>
 #include <iostream>
-#include <regex>
 
 #include "app/commands.hpp"
 #include "app/python_script.hpp"
@@ -34,19 +33,13 @@ struct FitArgs {
   bool quiet = false, print_config = false, no_plots = false, force = false;
 };
 
-// `key` with every list index written [*] (protocol[8].cells_along -> protocol[*].cells_along).
-std::string with_every_index(const std::string& key) {
-  static const std::regex index(R"(\[[0-9]+\])");
-  return std::regex_replace(key, index, "[*]");
-}
-
-// Where a config key got its value: the last --set of it (or of the key in every list entry,
-// list[*].key), else the config file, else the defaults (whose limits are the schema's).
+// Where a config key got its value: the last --set that sets it (core/config.hpp
+// override_sets_key), else the config file, else the defaults (whose limits are the schema's).
 InputLocation config_key_location(const FitArgs& args, const std::string& key) {
-  const std::string every = with_every_index(key);
-  for (auto it = args.sets.rbegin(); it != args.sets.rend(); ++it)
-    for (const std::string& k : {key, every})
-      if (it->rfind(k + "=", 0) == 0 || it->rfind(k + " =", 0) == 0) return {"--set", 0, k};
+  for (auto it = args.sets.rbegin(); it != args.sets.rend(); ++it) {
+    const std::string assigned = it->substr(0, it->find('='));
+    if (override_sets_key(assigned.substr(0, assigned.find_last_not_of(' ') + 1), key)) return {"--set", 0, key};
+  }
   return {args.config.empty() ? "default config" : args.config, 0, key};
 }
 

@@ -45,5 +45,7 @@ void add_bench_command(CLI::App& app, Context& context);
 void add_fit_command(CLI::App& app, Context& context);
 /// `twill recover ...`: one parameter-recovery run (optimiser studies, command_recover.cpp).
 void add_recover_command(CLI::App& app, Context& context);
+/// `twill sweep STUDY.yaml [-o DIR] [--jobs N]`: a study's fits, results in SQLite (command_sweep.cpp).
+void add_sweep_command(CLI::App& app, Context& context);
 
 }  // namespace twill

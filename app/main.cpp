@@ -44,6 +44,7 @@ int main(int argc, char** argv) {
     twill::add_bench_command(app, context);
     twill::add_fit_command(app, context);
     twill::add_recover_command(app, context);
+    twill::add_sweep_command(app, context);
     // -----------------------------------------------------------------------------------------
 
     app.parse(argc, argv);

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <regex>
 #include <stdexcept>
 
 #include "core/registry.hpp"
@@ -712,6 +713,18 @@ Options default_options(const OptionSchema& schema, const Registry* registry) {
 
 Options read_config_file(const std::string& path, const OptionSchema& schema, const Registry* registry) {
   return resolve_options(schema, load_yaml_file(path), registry);
+}
+
+std::string with_every_index(const std::string& key) {
+  static const std::regex index(R"(\[[0-9]+\])");
+  return std::regex_replace(key, index, "[*]");
+}
+
+bool override_sets_key(const std::string& assigned, const std::string& key) {
+  for (const std::string& k : {key, with_every_index(key)})
+    if (k.rfind(assigned, 0) == 0 && (k.size() == assigned.size() || k[assigned.size()] == '.' || k[assigned.size()] == '['))
+      return true;
+  return false;
 }
 
 void apply_override(Options& config, const OptionSchema& schema, const Registry* registry,

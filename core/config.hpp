@@ -230,6 +230,15 @@ void apply_override(Options& config, const OptionSchema& schema, const Registry*
 void apply_overrides(Options& config, const OptionSchema& schema, const Registry* registry,
                      const std::vector<std::string>& assignments);
 
+/// `key` with every list index written [*] (`protocol[8].cells_along` ->
+/// `protocol[*].cells_along`): the override that sets the key in every entry sets this one.
+std::string with_every_index(const std::string& key);
+
+/// Whether an override of `assigned` (`protocol`, `protocol[*].max_degree`, `solver.tolerance`)
+/// sets the config key `key` (`protocol[2].stage`): the same key, the key in every list entry,
+/// or a section or list that holds it. Errors about `key` are then located at the override.
+bool override_sets_key(const std::string& assigned, const std::string& key);
+
 /// The resolved config as YAML (block style; components as {name, options...}).
 std::string options_to_yaml(const Options& options);
 /// Writes options_to_yaml(); throws std::runtime_error if the file cannot be written.

@@ -1,0 +1,84 @@
+// Metrics of a fit report for the study database (study/run_metrics.hpp).
+#include "study/run_metrics.hpp"
+
+#include <map>
+#include <nlohmann/json.hpp>
+
+namespace twill {
+namespace {
+
+using json = nlohmann::json;
+using Metrics = std::vector<std::pair<std::string, double>>;
+
+// Mean avg_rel_error of `curves`, overall (`name`) and per label (`name.<label>`).
+void curve_errors(const json& curves, const std::string& name, Metrics* out) {
+  std::map<std::string, std::pair<double, int>> by_label;
+  double sum = 0;
+  for (const json& c : curves) {
+    const double e = c.at("avg_rel_error").get<double>();
+    auto& [label_sum, count] = by_label[c.at("label").get<std::string>()];
+    label_sum += e;
+    ++count;
+    sum += e;
+  }
+  if (curves.empty()) return;
+  out->emplace_back(name, sum / static_cast<double>(curves.size()));
+  for (const auto& [label, s] : by_label) out->emplace_back(name + "." + label, s.first / s.second);
+}
+
+void parameter_metrics(const json& p, Metrics* out) {
+  for (const char* key : {"a11_Pa", "a12_Pa", "a22_Pa", "G12_Pa", "thickness_m", "density_kg_m2"})
+    out->emplace_back(std::string("param.") + key, p.at(key).get<double>());
+  for (const auto& [key, value] : p.at("membrane_N_per_m").items())
+    out->emplace_back("param." + key + "_N_m", value.get<double>());
+  for (const char* term : {"eta1", "eta3", "eta4"})
+    for (const char* part : {"mu", "alpha"}) {
+      const json& values = p.at(term).at(part);
+      for (size_t i = 0; i < values.size(); ++i)
+        out->emplace_back("param." + std::string(term) + "." + part + "[" + std::to_string(i) + "]",
+                          values[i].get<double>());
+    }
+}
+
+void stage_metrics(const json& stages, Metrics* out) {
+  std::map<std::string, double> last_error;  // a stage's last entry: its finest level
+  double iterations = 0, evaluations = 0, solves = 0;
+  for (const json& s : stages) {
+    last_error[s.at("stage").get<std::string>()] = s.at("avg_rel_error").get<double>();
+    iterations += s.at("iterations").get<double>();
+    evaluations += s.at("evaluations").get<double>();
+    solves += s.at("equilibrium_solves").get<double>();
+  }
+  for (const auto& [stage, error] : last_error) out->emplace_back("error.stage." + stage, error);
+  out->emplace_back("count.iterations", iterations);
+  out->emplace_back("count.evaluations", evaluations);
+  out->emplace_back("count.equilibrium_solves", solves);
+}
+
+void effect_metrics(const json& effects, Metrics* out) {
+  for (const json& e : effects) {
+    const std::string name = "effect." + e.at("effect").get<std::string>();
+    out->emplace_back(name + ".error_without", e.at("error_without").get<double>());
+    out->emplace_back(name + ".error_with", e.at("error_with").get<double>());
+    for (const json& p : e.at("parameters"))
+      out->emplace_back("param." + p.at("name").get<std::string>(), p.at("value").get<double>());
+  }
+}
+
+}  // namespace
+
+std::vector<std::pair<std::string, double>> fit_metrics(const nlohmann::json& report) {
+  Metrics out;
+  curve_errors(report.at("fit"), "error.fit", &out);
+  curve_errors(report.at("validation"), "error.validation", &out);
+  stage_metrics(report.at("stages"), &out);
+  parameter_metrics(report.at("parameters"), &out);
+  for (const json& b : report.at("bend"))
+    if (b.at("chord_angle_deg").is_number())
+      out.emplace_back("drape." + b.at("label").get<std::string>() + "_deg", b.at("chord_angle_deg").get<double>());
+  effect_metrics(report.at("effects"), &out);
+  for (const auto& [key, seconds] : report.at("timing_s").items()) out.emplace_back("time." + key, seconds.get<double>());
+  return out;
+}
+
+}  // namespace twill

@@ -1,0 +1,28 @@
+#pragma once
+// What a study records of each run (study/results_db.hpp `metrics`), read from the run's
+// report.json (fitting/fit_report.cpp). Names, for `twill report` and SQL:
+//
+//   error.fit, error.fit.<label>                 mean average relative error of the final fit
+//                                                curves (all, per test label), paper Eq. 3
+//   error.validation, error.validation.<label>   the same for the validation strips
+//   error.stage.<stage>                          a stage's error at its last (finest) entry
+//   param.<name>                                 a11_Pa, a12_Pa, a22_Pa, G12_Pa, thickness_m,
+//                                                tau_a11_N_m, tau_a22_N_m, tau_G12_N_m,
+//                                                eta1.mu[0], eta1.alpha[0], …, effect parameters
+//   drape.<label>_deg                            the simulated cantilever chord angle
+//   effect.<effect>.error_without, .error_with   the effect-fit stage's contrast
+//   time.<timing key>                            per-stage wall times (s), time.total
+//   count.iterations, count.evaluations,         optimiser iterations, objective evaluations and
+//   count.equilibrium_solves                     equilibrium solves, summed over the stages
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <nlohmann/json_fwd.hpp>
+
+namespace twill {
+
+/// The metrics of one `twill fit` report (report.json, parsed).
+std::vector<std::pair<std::string, double>> fit_metrics(const nlohmann::json& report);
+
+}  // namespace twill

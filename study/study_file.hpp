@@ -1,0 +1,58 @@
+#pragma once
+// Study files of `twill sweep` (issue #17; docs/studies.md): a list of datasets and, for any
+// config key, a list of values; the study is their product (or an explicit list of
+// combinations), each run a `twill fit` with its own resolved config.
+//
+//   command: fit                      # the only command a study can run yet (default)
+//   datasets: [../../examples/canvas] # folders, relative to the study file's folder
+//   config: base.yaml                 # optional base config (else the defaults), same folder rule
+//   vary:                             # any config key: a list of values; the product is run
+//     optimizer.name: [gauss-newton, bfgs]
+//     resolution.levels: [1, 2]
+//   combinations:                     # or instead of vary: the runs' values, one mapping each
+//     - {optimizer.name: bfgs, resolution.levels: 1}
+//   set: {degree.max: 3}              # fixed overrides for every run
+//   plots: false                      # each fit's figures (scripts/plot_fit.py); default off
+//
+// Everything is validated when the file is read, before any run starts: unknown keys of the
+// study, a config key or value the fit config rejects (the error names the study file, the
+// line of the value and the config's own reason, e.g. its known keys), an unreadable dataset,
+// a resolution or protocol the dataset cannot run (check_fit_sizes, check_fit_protocol).
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "core/config.hpp"
+
+namespace twill {
+
+class Registry;
+
+/// One run of a study: a dataset and a resolved config.
+struct StudyRun {
+  std::string dataset;  ///< the dataset folder (as resolved against the study file's folder)
+  /// The run's coordinates, in study order: ("dataset", as written in the study), then each
+  /// varied key with its value as YAML text.
+  std::vector<std::pair<std::string, std::string>> values;
+  Options config;    ///< the fit config: base config, `set`, then the run's values
+  std::string hash;  ///< 16 hex digits of FNV-1a over command, dataset and the resolved config
+};
+
+struct Study {
+  std::string path;     ///< the study file
+  std::string command;  ///< "fit"
+  bool plots = false;   ///< each run's figures
+  std::vector<StudyRun> runs;
+};
+
+/// The commands a study can run (the study file's `command` values).
+const std::vector<std::string>& study_commands();
+
+/// Reads, expands and validates a study file (see the header comment); InputError on any
+/// problem, located in the study file.
+Study read_study_file(const std::string& path, const Registry& registry);
+
+/// The run's values as one line, e.g. "dataset=canvas optimizer.name=bfgs".
+std::string describe_run(const StudyRun& run);
+
+}  // namespace twill
