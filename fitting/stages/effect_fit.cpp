@@ -369,7 +369,7 @@ class EffectFit final : public FitStage {
   // The score test of the effect at the parameters so far with the effect neutral
   // (core/score_test.hpp): the baseline's directions are the curves freed with it (`free`
   // after its first n_effect entries, the effect's) and the runs' specimen scales.
-  void score_at_neutral(const FitContext& context, const ComponentChoice& configured,
+  void score_at_neutral(FitContext& context, const ComponentChoice& configured,
                         const std::vector<std::string>& free, size_t n_effect, const ParameterMap::Options& map_options,
                         const std::vector<std::shared_ptr<Predictor>>& predictors,
                         const std::vector<const RunData*>& force_runs, FitEffect* result) const {
@@ -384,36 +384,41 @@ class EffectFit final : public FitStage {
       result->score_dof = t.dof;
       result->score_p_value_iid = t.p_value_iid;
     } catch (const std::runtime_error& e) {
-      result->score = std::numeric_limits<double>::quiet_NaN();  // reported as not evaluated
+      result->score = std::numeric_limits<double>::quiet_NaN();  // reported as not evaluated, and why
+      context.note("effect " + options_.effect + ": score test not evaluated: " + e.what());
     }
   }
 
-  // The runs' mean error with the effect at its neutral values (the schema defaults).
-  // The fit runs' mean error at their nominal angles with the curves as fitted so far, by the
-  // measure error_with uses (the fit objective's, each run with its profiled scale under
-  // repeats.scale: per-run) — not the offset search's misfit, whose scale is the run's own
-  // unconstrained best one and would flatter the nominal model.
+  // The runs' mean error at `params`, by the fit objective's measure (each force run with its
+  // profiled scale under repeats.scale: per-run): what error_with is measured by.
+  static double error_at(const FitContext& context, const MaterialParameters& params,
+                         const std::vector<std::string>& free, const ParameterMap::Options& map_options,
+                         const std::vector<std::shared_ptr<Predictor>>& predictors,
+                         const std::vector<const RunData*>& force_runs) {
+    ParameterMap map(params, free, map_options);
+    FitObjective objective(map, predictors);
+    objective.set_scale_groups(context.scale_groups(force_runs, predictors.size()));
+    objective.evaluate(map.initial_x(), nullptr);
+    return mean_run_error(objective, predictors.size());
+  }
+
+  // The fit runs' mean error at their nominal angles with the curves as fitted so far — not the
+  // offset search's misfit, whose scale is the run's own unconstrained best one and would
+  // flatter the nominal model.
   static double error_at_nominal_angles(FitContext& context, const std::vector<const RunData*>& runs, int level) {
     std::vector<std::shared_ptr<Predictor>> predictors;
     for (const RunData* d : runs) predictors.push_back(context.tensile_experiment(*d, level, context.params));
     std::vector<std::string> curves;  // evaluated at their values, not fitted
     append_curve_parameters(context, &curves);
-    ParameterMap map(context.params, curves, {});
-    FitObjective objective(map, predictors);
-    objective.set_scale_groups(context.scale_groups(runs, predictors.size()));
-    objective.evaluate(map.initial_x(), nullptr);
-    return mean_run_error(objective, predictors.size());
+    return error_at(context, context.params, curves, {}, predictors, runs);
   }
 
-  double error_at_neutral(const FitContext& context, const ComponentChoice& configured,
-                          const std::vector<std::string>& free, const ParameterMap::Options& map_options,
-                          const std::vector<std::shared_ptr<Predictor>>& predictors,
-                          const std::vector<const RunData*>& force_runs) const {
-    ParameterMap map(neutral_params(context, configured), free, map_options);
-    FitObjective objective(map, predictors);
-    objective.set_scale_groups(context.scale_groups(force_runs, predictors.size()));
-    objective.evaluate(map.initial_x(), nullptr);
-    return mean_run_error(objective, predictors.size());
+  // The runs' mean error with the effect at its neutral values (the schema defaults).
+  static double error_at_neutral(const FitContext& context, const ComponentChoice& configured,
+                                 const std::vector<std::string>& free, const ParameterMap::Options& map_options,
+                                 const std::vector<std::shared_ptr<Predictor>>& predictors,
+                                 const std::vector<const RunData*>& force_runs) {
+    return error_at(context, neutral_params(context, configured), free, map_options, predictors, force_runs);
   }
 };
 
