@@ -47,5 +47,7 @@ void add_fit_command(CLI::App& app, Context& context);
 void add_recover_command(CLI::App& app, Context& context);
 /// `twill sweep STUDY.yaml [-o DIR] [--jobs N]`: a study's fits, results in SQLite (command_sweep.cpp).
 void add_sweep_command(CLI::App& app, Context& context);
+/// `twill report DB`: tables and plots of a study's results (study/report.hpp).
+void add_report_command(CLI::App& app, Context& context);
 
 }  // namespace twill

@@ -45,6 +45,7 @@ int main(int argc, char** argv) {
     twill::add_fit_command(app, context);
     twill::add_recover_command(app, context);
     twill::add_sweep_command(app, context);
+    twill::add_report_command(app, context);
     // -----------------------------------------------------------------------------------------
 
     app.parse(argc, argv);

@@ -1,5 +1,6 @@
 #include "app/python_script.hpp"
 
+#include <dlfcn.h>
 #include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -9,10 +10,14 @@
 #include <stdexcept>
 #include <system_error>
 
-extern char** environ;
-
 namespace twill {
 namespace {
+
+// The process's environment, without naming `environ`: a reference from the program would
+// copy-relocate it into the executable, and the MPI plugin (loaded RTLD_DEEPBIND by
+// study/mpi_transport.cpp) would then bind Open MPI to libc's stale original, whose setenv
+// frees pointers it never allocated (an abort in MPI_Init under mpirun).
+char** current_environment() { return *static_cast<char***>(dlsym(RTLD_DEFAULT, "environ")); }
 
 // The exit status the scripts use for "matplotlib cannot be imported".
 constexpr int kMissingMatplotlib = 3;
@@ -37,7 +42,7 @@ void run_python_script(const Context& context, const std::string& script, const 
 
   // posix_spawn, not std::system: no shell, so paths with spaces or quotes need no escaping.
   pid_t pid = 0;
-  const int spawn_error = posix_spawn(&pid, context.python.c_str(), nullptr, nullptr, argv.data(), environ);
+  const int spawn_error = posix_spawn(&pid, context.python.c_str(), nullptr, nullptr, argv.data(), current_environment());
   if (spawn_error != 0)
     throw std::runtime_error("cannot start " + context.python + ": " + std::strerror(spawn_error));
   int status = 0;

@@ -16,6 +16,7 @@
 // - A failed fit removes OUTDIR.partial, or keeps it as OUTDIR.incomplete when an incomplete
 //   report was written into it (keep_incomplete()): never an OUTDIR that looks complete.
 #include <filesystem>
+#include <functional>
 #include <optional>
 #include <set>
 #include <string>
@@ -37,16 +38,30 @@ std::string safe_path_component(const std::string& name);
 /// out/fit-<safe name>: the default OUTDIR of a dataset.
 std::filesystem::path default_fit_folder(const std::string& dataset_name);
 
-class FitOutputFolder {
+/// What one command writes into its output folders: the rules above hold for each, with its
+/// own marker and file names (twill fit's; twill report's, study/report.hpp).
+struct OutputFolderKind {
+  std::string command;  ///< e.g. "twill fit", for messages and the marker's text
+  std::string marker;   ///< the marker file's name
+  std::string files;    ///< the command's file names, for the marker's text
+  std::string source;   ///< what the folder it reads is, e.g. "dataset": never an output folder
+  std::function<bool(const std::string& name)> owns;  ///< a file name the command writes
+};
+
+/// twill fit's kind: kFitMarkerFile and fit_output_file_names().
+const OutputFolderKind& fit_output_kind();
+
+class OutputFolder {
  public:
   /// Checks `out` against the rules above and creates `out`.partial with the marker. Throws
   /// InputError (located at `option`, e.g. "-o") when `out` is not acceptable or not writable.
-  FitOutputFolder(std::filesystem::path out, const std::string& dataset_folder, bool force,
-                  const std::string& option = "-o");
+  /// `source_folder` (the dataset a fit reads; may be empty) is never an output folder.
+  OutputFolder(const OutputFolderKind& kind, std::filesystem::path out, const std::string& source_folder, bool force,
+               const std::string& option = "-o");
   /// Removes the staging folder unless commit() or keep_incomplete() moved it.
-  ~FitOutputFolder();
-  FitOutputFolder(const FitOutputFolder&) = delete;
-  FitOutputFolder& operator=(const FitOutputFolder&) = delete;
+  ~OutputFolder();
+  OutputFolder(const OutputFolder&) = delete;
+  OutputFolder& operator=(const OutputFolder&) = delete;
 
   const std::filesystem::path& out() const { return out_; }
   /// OUTDIR.partial: write every output here.
@@ -58,9 +73,18 @@ class FitOutputFolder {
   std::optional<std::filesystem::path> keep_incomplete();
 
  private:
+  const OutputFolderKind& kind_;
   std::filesystem::path out_, staging_;
   bool out_was_ours_ = false;
   bool done_ = false;
+};
+
+/// The output folder of `twill fit`.
+class FitOutputFolder : public OutputFolder {
+ public:
+  FitOutputFolder(std::filesystem::path out, const std::string& dataset_folder, bool force,
+                  const std::string& option = "-o")
+      : OutputFolder(fit_output_kind(), std::move(out), dataset_folder, force, option) {}
 };
 
 }  // namespace twill

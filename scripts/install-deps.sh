@@ -5,7 +5,7 @@ set -euo pipefail
 
 packages=(
   build-essential cmake ninja-build pkg-config
-  libeigen3-dev libosd-dev libopenmesh-dev coinor-libipopt-dev libnlopt-cxx-dev
+  libeigen3-dev libosd-dev libopenmesh-dev coinor-libipopt-dev libnlopt-cxx-dev libopenmpi-dev openmpi-bin
   libsuitesparse-dev libopenblas0-pthread libgtest-dev libyaml-cpp-dev libcli11-dev
   libspdlog-dev libfmt-dev libtbb-dev libsqlite3-dev nlohmann-json3-dev
   python3 python3-matplotlib python3-numpy python3-yaml

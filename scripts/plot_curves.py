@@ -13,7 +13,8 @@ import json
 import math
 import sys
 
-MISSING_MATPLOTLIB = 3
+from plot_common import pyplot_or_exit
+
 
 
 def main() -> int:
@@ -22,14 +23,7 @@ def main() -> int:
     parser.add_argument("output", help="image to write (.png, .svg or .pdf)")
     args = parser.parse_args()
 
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")  # no display needed
-        import matplotlib.pyplot as plt
-    except ImportError as error:
-        print(f"plot_curves.py: cannot import matplotlib ({error})", file=sys.stderr)
-        return MISSING_MATPLOTLIB
+    plt = pyplot_or_exit("plot_curves.py")
 
     with open(args.curves, encoding="utf-8") as f:
         data = json.load(f)

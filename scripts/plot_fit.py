@@ -18,7 +18,8 @@ import json
 import os
 import sys
 
-MISSING_MATPLOTLIB = 3
+from plot_common import pyplot_or_exit
+
 
 
 def main() -> int:
@@ -26,14 +27,7 @@ def main() -> int:
     parser.add_argument("report", help="report.json written by twill fit")
     parser.add_argument("outdir", help="folder for the PNG files")
     args = parser.parse_args()
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError as error:
-        print(f"plot_fit.py: matplotlib is not available ({error})", file=sys.stderr)
-        return MISSING_MATPLOTLIB
+    plt = pyplot_or_exit("plot_fit.py")
 
     with open(args.report, encoding="utf-8") as f:
         report = json.load(f)

@@ -91,20 +91,51 @@ class Statement {
 
 }  // namespace
 
-ResultsDb::ResultsDb(const std::filesystem::path& file) : file_(file.string()) {
-  if (sqlite3_open_v2(file_.c_str(), &db_, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr) != SQLITE_OK) {
+ResultsDb::ResultsDb(const std::filesystem::path& file, Access access) : file_(file.string()) {
+  const bool create = access == Access::create;
+  if (!create && !std::filesystem::is_regular_file(file))
+    throw std::runtime_error("no results database " + file_ + " (twill sweep writes DIR/results.sqlite)");
+  const int flags = create ? SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE : SQLITE_OPEN_READONLY;
+  if (sqlite3_open_v2(file_.c_str(), &db_, flags, nullptr) != SQLITE_OK) {
     const std::string why = db_ ? sqlite3_errmsg(db_) : "out of memory";
     sqlite3_close(db_);
+    db_ = nullptr;
     throw std::runtime_error("cannot open the results database " + file_ + ": " + why);
   }
   sqlite3_busy_timeout(db_, kBusyTimeoutMs);
-  execute(kSchema);
-  const auto version = query("SELECT value FROM meta WHERE key = 'schema_version'");
-  if (version.empty())
+  try {
+    if (create) execute(kSchema);
+    check_schema(create);
+  } catch (...) {
+    sqlite3_close(db_);
+    throw;
+  }
+}
+
+void ResultsDb::check_schema(bool create) {
+  std::vector<std::vector<std::string>> version;
+  try {
+    version = query("SELECT value FROM meta WHERE key = 'schema_version'");
+  } catch (const std::runtime_error&) {
+    throw std::runtime_error(file_ + " is not a twill results database (no meta table)");
+  }
+  if (version.empty() && create)
     Statement(db_, "INSERT INTO meta(key, value) VALUES('schema_version', ?)", file_).bind(1, kSchemaVersion).run();
-  else if (version[0][0] != kSchemaVersion)
-    throw std::runtime_error("results database " + file_ + " has schema version " + version[0][0] +
-                             "; this twill writes version " + kSchemaVersion + " (use a new output folder)");
+  else if (version.empty() || version[0][0] != kSchemaVersion)
+    throw std::runtime_error("results database " + file_ + " has schema version " +
+                             (version.empty() ? std::string("(none)") : version[0][0]) + "; this twill reads version " +
+                             kSchemaVersion + (create ? " (use a new output folder)" : ""));
+}
+
+std::optional<std::string> ResultsDb::meta(const std::string& key) const {
+  Statement s(db_, "SELECT value FROM meta WHERE key = ?", file_);
+  s.bind(1, key);
+  if (!s.step()) return std::nullopt;
+  return s.text(0);
+}
+
+void ResultsDb::set_meta(const std::string& key, const std::string& value) {
+  Statement(db_, "INSERT OR REPLACE INTO meta(key, value) VALUES(?, ?)", file_).bind(1, key).bind(2, value).run();
 }
 
 ResultsDb::~ResultsDb() { sqlite3_close(db_); }

@@ -9,7 +9,8 @@
 //   metrics(hash, name, value)   what the run measured (study/run_metrics.hpp): per-test and
 //                                per-stage errors, fitted parameters, per-stage timings,
 //                                solver and optimiser counts
-//   meta(key, value)             schema version
+//   meta(key, value)             schema_version; study (the study file's path) and report (its
+//                                `report:` tables as JSON), written by the sweep
 //
 // A run's rows are written in one transaction when it finishes, so a killed sweep leaves every
 // finished run complete and nothing half-written. Debian's libsqlite3; every failing call
@@ -38,8 +39,10 @@ struct RunOutcome {
 
 class ResultsDb {
  public:
-  /// Opens (creating when new) the database and its tables.
-  explicit ResultsDb(const std::filesystem::path& file);
+  enum class Access { create, read_only };
+  /// Opens the database: with `create`, creating it and its tables when new; `read_only`
+  /// requires an existing twill results database (std::runtime_error naming the file if not).
+  explicit ResultsDb(const std::filesystem::path& file, Access access = Access::create);
   ~ResultsDb();
   ResultsDb(const ResultsDb&) = delete;
   ResultsDb& operator=(const ResultsDb&) = delete;
@@ -51,10 +54,15 @@ class ResultsDb {
   /// Records a finished run: status, error, time and metrics replace what was stored.
   void record(const std::string& hash, const RunOutcome& outcome);
 
+  /// A meta value, nullopt when unset.
+  std::optional<std::string> meta(const std::string& key) const;
+  void set_meta(const std::string& key, const std::string& value);
+
   /// Rows of a query with text columns (for `twill report` and tests).
   std::vector<std::vector<std::string>> query(const std::string& sql) const;
 
  private:
+  void check_schema(bool create);
   void execute(const std::string& sql) const;
   sqlite3* db_ = nullptr;
   std::string file_;

@@ -26,7 +26,7 @@ struct Assignment {
   InputLocation where;
 };
 
-const std::vector<std::string> kStudyKeys = {"command", "datasets", "config", "vary", "combinations", "set", "plots"};
+const std::vector<std::string> kStudyKeys = {"command", "datasets", "config", "vary", "combinations", "set", "plots", "report"};
 
 // A YAML value as the text `--set` reads back: scalars as written, lists and mappings in flow
 // style (`[hysteresis]`, `{name: bfgs}`).
@@ -139,6 +139,45 @@ std::string run_hash(const std::string& command, const std::string& dataset, con
   return fmt::format("{:016x}", h);
 }
 
+// The keys a report can tabulate against: "dataset" and every key a run varies.
+std::vector<std::string> swept_keys(const std::vector<std::vector<Assignment>>& combinations) {
+  std::vector<std::string> keys = {"dataset"};
+  for (const auto& combination : combinations)
+    for (const Assignment& a : combination)
+      if (std::find(keys.begin(), keys.end(), a.key) == keys.end()) keys.push_back(a.key);
+  return keys;
+}
+
+std::string read_swept_key(const YamlValue& value, const std::vector<std::string>& swept) {
+  const std::string key = value.as_string();
+  if (std::find(swept.begin(), swept.end(), key) == swept.end())
+    throw value.error("'" + excerpt(key) + "' is not a swept key of this study (swept: " + fmt::format("{}", fmt::join(swept, ", ")) + ")");
+  return key;
+}
+
+// `report:` — a list of {metric, x, group}; x and group must be swept keys.
+std::vector<ReportTable> read_report(const YamlValue& list, const std::vector<std::string>& swept) {
+  if (!list.is_sequence() || list.items().empty())
+    throw list.error("expected a non-empty list of tables ({metric: NAME, x: KEY, group: [KEYS]}), got " + list.describe());
+  std::vector<ReportTable> out;
+  for (const YamlValue& item : list.items()) {
+    YamlMap map(item);
+    map.expect({"metric", "x", "group"});
+    ReportTable t;
+    t.metric = map.get("metric").as_string();
+    t.x = read_swept_key(map.get("x"), swept);
+    if (const auto group = map.find("group")) {
+      if (group->is_sequence())
+        for (const YamlValue& g : group->items()) t.group.push_back(read_swept_key(g, swept));
+      else
+        t.group.push_back(read_swept_key(*group, swept));
+    }
+    map.finish();
+    out.push_back(std::move(t));
+  }
+  return out;
+}
+
 }  // namespace
 
 const std::vector<std::string>& study_commands() {
@@ -175,6 +214,7 @@ Study read_study_file(const std::string& path, const Registry& registry) {
   std::vector<Assignment> fixed;
   if (const auto set = study.find("set")) fixed = read_assignments(*set);
   const auto combinations = read_combinations(study);
+  if (const auto report = study.find("report")) out.report = read_report(*report, swept_keys(combinations));
   study.finish();
 
   std::map<std::string, Dataset> read;  // each dataset read (and so validated) once

@@ -13,6 +13,8 @@
 //     - {optimizer.name: bfgs, resolution.levels: 1}
 //   set: {degree.max: 3}              # fixed overrides for every run
 //   plots: false                      # each fit's figures (scripts/plot_fit.py); default off
+//   report:                           # the tables `twill report` makes by default
+//     - {metric: error.fit, x: resolution.levels, group: [optimizer.name]}
 //
 // Everything is validated when the file is read, before any run starts: unknown keys of the
 // study, a config key or value the fit config rejects (the error names the study file, the
@@ -38,11 +40,20 @@ struct StudyRun {
   std::string hash;  ///< 16 hex digits of FNV-1a over command, dataset and the resolved config
 };
 
+/// One table of `twill report` (study/report.hpp): `metric` (a metric name, or a pattern with
+/// `*` such as `param.*`: a table each) against the swept key `x`, a column for each value of
+/// the `group` keys.
+struct ReportTable {
+  std::string metric, x;
+  std::vector<std::string> group;
+};
+
 struct Study {
   std::string path;     ///< the study file
   std::string command;  ///< "fit"
   bool plots = false;   ///< each run's figures
   std::vector<StudyRun> runs;
+  std::vector<ReportTable> report;  ///< `report:` (x and group keys checked to be swept)
 };
 
 /// The commands a study can run (the study file's `command` values).

@@ -12,10 +12,16 @@
 #include <csignal>
 #include <cstring>
 #include <fstream>
+#include <algorithm>
 #include <map>
+#include <optional>
+#include <set>
+#include <thread>
 #include <nlohmann/json.hpp>
 
 #include "core/input_error.hpp"
+#include "study/mpi_transport.hpp"
+#include "study/report.hpp"
 #include "study/results_db.hpp"
 #include "study/run_metrics.hpp"
 
@@ -33,16 +39,57 @@ bool is_empty_folder(const fs::path& p) {
   return fs::is_empty(p, ec) && !ec;
 }
 
-fs::path run_folder(const SweepOptions& options, const StudyRun& run) { return options.out / "runs" / run.hash; }
+// A run as the process that runs it needs it: all a worker rank is sent.
+struct RunTask {
+  std::string hash, command, dataset, config_yaml, description;
+  std::string folder;  ///< DIR/runs/<hash>, absolute (a worker rank may have another working folder)
+  bool plots = false;
+};
 
-// A child `twill fit` for `run`, its terminal output in log.txt; never returns in the child.
-pid_t start_child(const Study& study, const StudyRun& run, const SweepOptions& options) {
-  const fs::path folder = run_folder(options, run);
+RunTask task_of(const Study& study, const StudyRun& run, const SweepOptions& options) {
+  return {run.hash,           study.command, run.dataset, options_to_yaml(run.config), describe_run(run),
+          fs::absolute(options.out / "runs" / run.hash).string(), study.plots};
+}
+
+nlohmann::json to_json(const RunTask& t) {
+  return {{"hash", t.hash},         {"command", t.command},         {"dataset", t.dataset}, {"config", t.config_yaml},
+          {"run", t.description}, {"folder", t.folder}, {"plots", t.plots}};
+}
+
+RunTask task_from_json(const std::string& bytes) {
+  const auto j = nlohmann::json::parse(bytes);
+  return {j.at("hash"),   j.at("command"), j.at("dataset"), j.at("config"),
+          j.at("run"), j.at("folder"),  j.at("plots")};
+}
+
+nlohmann::json to_json(const RunOutcome& o) {
+  return {{"status", o.status}, {"exit_code", o.exit_code}, {"error", o.error},
+          {"wall_s", o.wall_s}, {"out_dir", o.out_dir},     {"metrics", o.metrics}};
+}
+
+RunOutcome outcome_from_json(const nlohmann::json& j) {
+  RunOutcome o;
+  o.status = j.at("status");
+  o.exit_code = j.at("exit_code");
+  o.error = j.at("error");
+  o.wall_s = j.at("wall_s");
+  o.out_dir = j.at("out_dir");
+  o.metrics = j.at("metrics").get<std::vector<std::pair<std::string, double>>>();
+  return o;
+}
+
+// A child `twill <command>` for `task`, its terminal output in log.txt; never returns in the child.
+pid_t start_child(const RunTask& task, const fs::path& program) {
+  const fs::path folder = task.folder;
   fs::create_directories(folder);
-  write_config_file(run.config, (folder / "config.yaml").string());
-  std::vector<std::string> args = {options.twill.string(), study.command, run.dataset, "-c",
+  {
+    std::ofstream config(folder / "config.yaml", std::ios::binary);
+    config << task.config_yaml;
+    if (!config.flush()) throw std::runtime_error("twill sweep: cannot write " + (folder / "config.yaml").string());
+  }
+  std::vector<std::string> args = {program.string(), task.command, task.dataset, "-c",
                                    (folder / "config.yaml").string(), "-o", (folder / "fit").string(), "--quiet"};
-  if (!study.plots) args.push_back("--no-plots");
+  if (!task.plots) args.push_back("--no-plots");
   const std::string log = (folder / "log.txt").string();
   const pid_t parent = getpid();
   const pid_t pid = fork();
@@ -74,8 +121,8 @@ std::string error_of(const fs::path& log) {
   return last;
 }
 
-RunOutcome outcome_of(const StudyRun& run, const SweepOptions& options, int wait_status, double wall_s) {
-  const fs::path folder = run_folder(options, run);
+RunOutcome outcome_of(const RunTask& task, int wait_status, double wall_s) {
+  const fs::path folder = task.folder;
   RunOutcome o;
   o.wall_s = wall_s;
   o.out_dir = (folder / "fit").string();
@@ -110,6 +157,165 @@ std::string duration(double seconds) {
   return fmt::format("{:.1f} h", seconds / 3600);
 }
 
+// Messages between the ranks (docs/studies.md §4): a worker asks for a run (kRequest, one
+// at a time), rank 0 answers with one (kTask) or tells it to stop (kStop); the worker sends
+// every finished run's outcome (kResult) and ends after kStop once its runs are finished.
+enum MessageTag : int { kRequest = 1, kTask = 2, kStop = 3, kResult = 4 };
+
+// How long a scheduler with nothing to do sleeps between looks at its children and messages:
+// nothing against a run (seconds at least), nothing for the processor either.
+constexpr auto kIdlePoll = std::chrono::milliseconds(20);
+
+// The runs this process has going as children.
+class ChildRuns {
+ public:
+  explicit ChildRuns(fs::path program) : program_(std::move(program)) {}
+  size_t size() const { return active_.size(); }
+  void start(RunTask task) {
+    const pid_t pid = start_child(task, program_);
+    active_.emplace(pid, Active{std::move(task), Clock::now()});
+  }
+  /// A finished run and its outcome; nullopt when none has finished (`block`: waits for one).
+  std::optional<std::pair<RunTask, RunOutcome>> reap(bool block) {
+    while (!active_.empty()) {
+      int status = 0;
+      const pid_t pid = waitpid(-1, &status, block ? 0 : WNOHANG);
+      if (pid == 0) return std::nullopt;
+      if (pid < 0) {
+        if (errno == EINTR) continue;
+        throw std::runtime_error(std::string("twill sweep: waiting for a run: ") + std::strerror(errno));
+      }
+      const auto it = active_.find(pid);
+      if (it == active_.end()) continue;  // not one of ours
+      const double wall = std::chrono::duration<double>(Clock::now() - it->second.start).count();
+      RunTask task = std::move(it->second.task);
+      active_.erase(it);
+      RunOutcome outcome = outcome_of(task, status, wall);
+      return std::make_pair(std::move(task), std::move(outcome));
+    }
+    return std::nullopt;
+  }
+
+ private:
+  struct Active {
+    RunTask task;
+    Clock::time_point start;
+  };
+  fs::path program_;
+  std::map<pid_t, Active> active_;
+};
+
+// Rank 0 (or the only process): hands the study's pending runs to its own children and to the
+// worker ranks that ask, records every start and end in the database, reports progress.
+class Scheduler {
+ public:
+  Scheduler(const Study& study, const SweepOptions& options, const SweepProgress& progress, const MpiTransport* mpi)
+      : study_(study), options_(options), progress_(progress), mpi_(mpi), db_(options.out / "results.sqlite"),
+        children_(options.twill) {}
+
+  SweepSummary run() {
+    const auto t0 = Clock::now();
+    record_study();
+    select_pending();
+    const int ranks = mpi_ ? mpi_->size() : 1;
+    progress_(fmt::format("{} runs: {} done before, {} failed before{}, {} to run, {} at once{}", summary_.total,
+                          summary_.already_done, summary_.skipped_failed,
+                          summary_.skipped_failed && !options_.retry_failed ? " (skipped; --retry-failed re-runs them)" : "",
+                          pending_.size(), options_.jobs * ranks, ranks > 1 ? fmt::format(" on {} ranks", ranks) : ""));
+    while (!finished()) {
+      while (next_ < pending_.size() && children_.size() < static_cast<size_t>(options_.jobs))
+        children_.start(dispatch(0));
+      bool idle = true;
+      if (auto done = children_.reap(mpi_ == nullptr)) {
+        record(done->first.hash, done->second, 0);
+        idle = false;
+      }
+      if (mpi_)
+        while (auto message = mpi_->poll()) {
+          handle(*message);
+          idle = false;
+        }
+      if (idle && mpi_) std::this_thread::sleep_for(kIdlePoll);
+    }
+    summary_.wall_s = std::chrono::duration<double>(Clock::now() - t0).count();
+    return summary_;
+  }
+
+ private:
+  // What `twill report` reads of the study: its path and its `report:` tables.
+  void record_study() {
+    db_.set_meta("study", fs::absolute(study_.path).string());
+    nlohmann::json tables = nlohmann::json::array();
+    for (const ReportTable& t : study_.report) tables.push_back(to_json(t));
+    db_.set_meta("report", tables.dump());
+  }
+  void select_pending() {
+    summary_.total = static_cast<int>(study_.runs.size());
+    for (size_t i = 0; i < study_.runs.size(); ++i) {
+      const auto status = db_.status(study_.runs[i].hash);
+      if (status == "done")
+        ++summary_.already_done;
+      else if (status == "failed" && !options_.retry_failed)
+        ++summary_.skipped_failed;
+      else
+        pending_.push_back(i);
+    }
+  }
+  bool finished() const {
+    const int workers = mpi_ ? mpi_->size() - 1 : 0;
+    return next_ == pending_.size() && children_.size() == 0 && remote_.empty() && stopped_workers_ == workers;
+  }
+  // The next pending run, marked running on `rank`.
+  RunTask dispatch(int rank) {
+    const size_t i = pending_[next_++];
+    db_.mark_running(study_.runs[i], study_.command, static_cast<int>(i), rank);
+    return task_of(study_, study_.runs[i], options_);
+  }
+  void handle(const MpiMessage& message) {
+    if (message.tag == kRequest) {
+      if (next_ < pending_.size()) {
+        const RunTask task = dispatch(message.source);
+        remote_.insert(task.hash);
+        mpi_->send(message.source, kTask, to_json(task).dump());
+      } else {
+        mpi_->send(message.source, kStop, "");
+        ++stopped_workers_;
+      }
+    } else if (message.tag == kResult) {
+      const auto j = nlohmann::json::parse(message.bytes);
+      const std::string hash = j.at("hash");
+      remote_.erase(hash);
+      record(hash, outcome_from_json(j.at("outcome")), message.source);
+    }
+  }
+  void record(const std::string& hash, const RunOutcome& outcome, int rank) {
+    db_.record(hash, outcome);
+    (outcome.status == "done" ? summary_.done : summary_.failed)++;
+    busy_s_ += outcome.wall_s;
+    const size_t finished = static_cast<size_t>(summary_.done + summary_.failed), to_run = pending_.size();
+    const int slots = options_.jobs * (mpi_ ? mpi_->size() : 1);
+    const double left = busy_s_ / static_cast<double>(finished) * static_cast<double>(to_run - finished) / slots;
+    const auto run = std::find_if(study_.runs.begin(), study_.runs.end(), [&](const StudyRun& r) { return r.hash == hash; });
+    progress_(fmt::format("[{}/{}] {} {} ({}{}){}; {} failed so far{}", finished, to_run,
+                          outcome.status == "done" ? "done" : "FAILED", describe_run(*run), duration(outcome.wall_s),
+                          mpi_ ? fmt::format(", rank {}", rank) : "", outcome.status == "done" ? "" : ": " + outcome.error,
+                          summary_.failed, finished < to_run ? ", about " + duration(left) + " left" : ""));
+  }
+
+  const Study& study_;
+  const SweepOptions& options_;
+  const SweepProgress& progress_;
+  const MpiTransport* mpi_;
+  ResultsDb db_;
+  ChildRuns children_;
+  SweepSummary summary_;
+  std::vector<size_t> pending_;
+  size_t next_ = 0;
+  std::set<std::string> remote_;  // hashes of runs going on worker ranks
+  int stopped_workers_ = 0;
+  double busy_s_ = 0;  // summed wall time of the finished runs, for the estimate
+};
+
 }  // namespace
 
 void prepare_sweep_folder(const fs::path& out, const std::string& option) {
@@ -132,64 +338,36 @@ void prepare_sweep_folder(const fs::path& out, const std::string& option) {
   if (!fs::exists(out / kSweepMarkerFile)) fail("not writable");
 }
 
-SweepSummary run_sweep(const Study& study, const SweepOptions& options, const SweepProgress& progress) {
-  const auto t0 = Clock::now();
-  ResultsDb db(options.out / "results.sqlite");
-  SweepSummary summary;
-  summary.total = static_cast<int>(study.runs.size());
-  std::vector<size_t> pending;
-  for (size_t i = 0; i < study.runs.size(); ++i) {
-    const auto status = db.status(study.runs[i].hash);
-    if (status == "done")
-      ++summary.already_done;
-    else if (status == "failed" && !options.retry_failed)
-      ++summary.skipped_failed;
-    else
-      pending.push_back(i);
-  }
-  progress(fmt::format("{} runs: {} done before, {} failed before{}, {} to run, {} at once", summary.total,
-                       summary.already_done, summary.skipped_failed,
-                       summary.skipped_failed && !options.retry_failed ? " (skipped; --retry-failed re-runs them)" : "",
-                       pending.size(), options.jobs));
-  struct Active {
-    size_t index;
-    Clock::time_point start;
-  };
-  std::map<pid_t, Active> active;
-  size_t next = 0;
-  double busy_s = 0;  // summed wall time of the finished runs, for the estimate
-  const size_t to_run = pending.size();
-  while (next < pending.size() || !active.empty()) {
-    while (next < pending.size() && active.size() < static_cast<size_t>(options.jobs)) {
-      const size_t i = pending[next++];
-      db.mark_running(study.runs[i], study.command, static_cast<int>(i), 0);
-      active[start_child(study, study.runs[i], options)] = {i, Clock::now()};
+SweepSummary run_sweep(const Study& study, const SweepOptions& options, const SweepProgress& progress,
+                       const MpiTransport* mpi) {
+  return Scheduler(study, options, progress, mpi).run();
+}
+
+void serve_sweep_worker(const MpiTransport& mpi, const SweepOptions& options) {
+  ChildRuns children(options.twill);
+  bool stopped = false, asked = false;
+  while (!stopped || children.size() > 0) {
+    if (!stopped && !asked && children.size() < static_cast<size_t>(options.jobs)) {
+      mpi.send(0, kRequest, "");
+      asked = true;
     }
-    int status = 0;
-    const pid_t pid = waitpid(-1, &status, 0);
-    if (pid < 0) {
-      if (errno == EINTR) continue;
-      throw std::runtime_error(std::string("twill sweep: waiting for a run: ") + std::strerror(errno));
+    bool idle = true;
+    if (auto message = mpi.poll()) {
+      idle = false;
+      asked = false;
+      if (message->tag == kTask) children.start(task_from_json(message->bytes));
+      if (message->tag == kStop) stopped = true;
     }
-    const auto it = active.find(pid);
-    if (it == active.end()) continue;  // not one of ours
-    const StudyRun& run = study.runs[it->second.index];
-    const double wall = std::chrono::duration<double>(Clock::now() - it->second.start).count();
-    active.erase(it);
-    const RunOutcome outcome = outcome_of(run, options, status, wall);
-    db.record(run.hash, outcome);
-    (outcome.status == "done" ? summary.done : summary.failed)++;
-    busy_s += wall;
-    const size_t finished = static_cast<size_t>(summary.done + summary.failed);
-    const double left = busy_s / static_cast<double>(finished) * static_cast<double>(to_run - finished) /
-                        static_cast<double>(options.jobs);
-    progress(fmt::format("[{}/{}] {} {} ({}){}; {} failed so far{}", finished, to_run,
-                         outcome.status == "done" ? "done" : "FAILED", describe_run(run), duration(wall),
-                         outcome.status == "done" ? "" : ": " + outcome.error, summary.failed,
-                         finished < to_run ? ", about " + duration(left) + " left" : ""));
+    if (auto done = children.reap(false)) {
+      idle = false;
+      mpi.send(0, kResult, nlohmann::json{{"hash", done->first.hash}, {"outcome", to_json(done->second)}}.dump());
+    }
+    if (idle) std::this_thread::sleep_for(kIdlePoll);
   }
-  summary.wall_s = std::chrono::duration<double>(Clock::now() - t0).count();
-  return summary;
+}
+
+void stop_sweep_workers(const MpiTransport& mpi) {
+  for (int rank = 1; rank < mpi.size(); ++rank) mpi.send(rank, kStop, "");
 }
 
 }  // namespace twill

@@ -18,6 +18,8 @@
 
 namespace twill {
 
+class MpiTransport;
+
 /// The marker file in every folder `twill sweep` fills.
 inline constexpr const char* kSweepMarkerFile = ".twill-sweep";
 
@@ -43,7 +45,17 @@ using SweepProgress = std::function<void(const std::string& line)>;
 /// marker. Anything else is an InputError located at `option` (nothing of it is touched).
 void prepare_sweep_folder(const std::filesystem::path& out, const std::string& option);
 
-/// Runs every run of `study` not done yet (see the header comment).
-SweepSummary run_sweep(const Study& study, const SweepOptions& options, const SweepProgress& progress);
+/// Runs every run of `study` not done yet (see the header comment). Under MPI (`mpi` given,
+/// rank 0): also hands runs to the worker ranks that ask (serve_sweep_worker), each of which
+/// runs `options.jobs` at once too; rank 0 alone touches the database.
+SweepSummary run_sweep(const Study& study, const SweepOptions& options, const SweepProgress& progress,
+                       const MpiTransport* mpi = nullptr);
+
+/// A worker rank (> 0): asks rank 0 for runs, runs them as children (`options.jobs` at once;
+/// `options.twill` the program), sends back each outcome, until rank 0 says stop.
+void serve_sweep_worker(const MpiTransport& mpi, const SweepOptions& options);
+
+/// Rank 0 whose study or folder was rejected: tells every worker to end without a run.
+void stop_sweep_workers(const MpiTransport& mpi);
 
 }  // namespace twill

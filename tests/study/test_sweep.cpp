@@ -132,6 +132,10 @@ TEST_F(StudyTest, EveryMistakeIsAnErrorWithTheStudyFileAndLine) {
       {"set: {resolution.levels: 9}\n", "study.yaml:2"},
       // Valid as a config, impossible as a protocol (check_fit_protocol), located at the `set` line.
       {"set:\n  protocol: [{name: strain-cutoff, stage: nosuch}]\n", "study.yaml:3"},
+      // A report table against a key the study does not vary; a table with a misspelt key.
+      {"vary: {optimizer.name: [bfgs]}\nreport:\n  - {metric: error.fit, x: resolution.levels}\n", "study.yaml:4"},
+      {"vary: {optimizer.name: [bfgs]}\nreport:\n  - {metric: error.fit, x: optimizer.name, gruop: dataset}\n",
+       "gruop"},
   };
   for (const Case& c : cases) {
     const std::string message = error_of(study(c.body));

@@ -1,0 +1,54 @@
+#pragma once
+// Tables of a study's results (`twill report DB`, issue #17; docs/studies.md §5): any metric
+// against any swept key, a column per value of the group keys, from DIR/results.sqlite.
+//
+// A cell is the metric over the done runs with that x and those group values: the value when
+// one run has it, else the mean of the n runs (the table says so: keys neither x nor group
+// then vary inside a cell). Failed and unfinished runs are listed apart, never averaged in.
+// x values sort as numbers when all are numbers, else in the study's run order.
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "study/study_file.hpp"
+
+namespace twill {
+
+class ResultsDb;
+
+struct ReportCell {
+  double mean = 0, min = 0, max = 0;
+  int count = 0;
+};
+
+struct ReportTableData {
+  std::string metric, x;
+  std::vector<std::string> group;
+  std::vector<std::string> x_values;  ///< rows
+  std::vector<std::string> columns;   ///< "key=value, …" of each group combination ("all" when no group)
+  std::vector<std::vector<std::optional<ReportCell>>> cells;  ///< [row][column]
+  bool numeric_x = false;
+};
+
+/// The tables of `spec` (a metric pattern with `*` gives a table per matching metric). An
+/// unknown metric, x or group key is an InputError located at `where` ("--metric", or the
+/// study file) that lists the known ones.
+std::vector<ReportTableData> tabulate(const ResultsDb& db, const ReportTable& spec, const std::string& where);
+
+/// The tables a database asks for when the command line names none: the study's `report:`,
+/// else every error metric and the total time against each swept key that takes more than one
+/// value, grouped by the other such keys.
+std::vector<ReportTable> default_report_tables(const ResultsDb& db);
+
+/// A table as Markdown (values to 4 significant digits; "—" where no run has the value).
+std::string markdown(const ReportTableData& table);
+/// The runs that are not done (status, swept values, error), as Markdown; "" when none.
+std::string unfinished_runs_markdown(const ResultsDb& db);
+
+nlohmann::json to_json(const ReportTable& table);
+ReportTable report_table_from_json(const nlohmann::json& j);
+/// A table's data for scripts/plot_report.py.
+nlohmann::json plot_json(const ReportTableData& table);
+
+}  // namespace twill
