@@ -40,16 +40,24 @@ void parameter_metrics(const json& p, Metrics* out) {
     }
 }
 
+// Per stage: its last entry's error and degree (its finest level). Over all optimiser runs of
+// the fit (one per stage, level and degree tried): counts, and how many ended other than
+// converged (stalled, an iteration or evaluation limit, a failed line search).
 void stage_metrics(const json& stages, Metrics* out) {
-  std::map<std::string, double> last_error;  // a stage's last entry: its finest level
-  double iterations = 0, evaluations = 0, solves = 0;
+  std::map<std::string, double> last_error, last_degree;
+  double iterations = 0, evaluations = 0, solves = 0, not_converged = 0;
   for (const json& s : stages) {
     last_error[s.at("stage").get<std::string>()] = s.at("avg_rel_error").get<double>();
+    if (s.contains("degree") && s.at("degree").is_number()) last_degree[s.at("stage").get<std::string>()] = s.at("degree").get<double>();
+    if (s.value("status", "converged") != "converged") ++not_converged;
     iterations += s.at("iterations").get<double>();
     evaluations += s.at("evaluations").get<double>();
     solves += s.at("equilibrium_solves").get<double>();
   }
   for (const auto& [stage, error] : last_error) out->emplace_back("error.stage." + stage, error);
+  for (const auto& [stage, degree] : last_degree) out->emplace_back("degree.stage." + stage, degree);
+  out->emplace_back("count.optimizer_runs", static_cast<double>(stages.size()));
+  out->emplace_back("count.optimizer_runs_not_converged", not_converged);
   out->emplace_back("count.iterations", iterations);
   out->emplace_back("count.evaluations", evaluations);
   out->emplace_back("count.equilibrium_solves", solves);

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <map>
+#include <optional>
 
 #include "core/dataset.hpp"
 #include "core/registry.hpp"
@@ -26,7 +27,7 @@ struct Assignment {
   InputLocation where;
 };
 
-const std::vector<std::string> kStudyKeys = {"command", "datasets", "config", "vary", "combinations", "set", "plots", "report"};
+const std::vector<std::string> kStudyKeys = {"command", "datasets", "config", "vary", "axes", "combinations", "set", "plots", "report"};
 
 // A YAML value as the text `--set` reads back: scalars as written, lists and mappings in flow
 // style (`[hysteresis]`, `{name: bfgs}`).
@@ -51,40 +52,95 @@ std::vector<Assignment> read_assignments(const YamlValue& value) {
   return out;
 }
 
-// `vary`: every config key with a non-empty list of values; their product, in file order with
-// the last key varying fastest.
-std::vector<std::vector<Assignment>> product_of(const YamlValue& vary) {
+// One run's share of the study's axes: its coordinates (swept key or axis name, value) and
+// the config overrides they stand for.
+struct Combination {
+  std::vector<std::pair<std::string, std::string>> swept;
+  std::vector<Assignment> sets;
+};
+
+// One dimension of the product: its values, each a coordinate and the overrides it sets.
+using Dimension = std::vector<std::pair<std::string, std::vector<Assignment>>>;
+
+// `vary`: every config key with a non-empty list of values, a dimension each.
+std::vector<std::pair<std::string, Dimension>> vary_dimensions(const YamlValue& vary) {
   YamlMap map(vary);
-  std::vector<std::vector<Assignment>> combinations(1);
+  std::vector<std::pair<std::string, Dimension>> out;
   for (const std::string& key : map.keys()) {
     const YamlValue list = map.get(key);
     if (!list.is_sequence() || list.items().empty())
       throw list.error("expected a non-empty list of values for the config key '" + excerpt(key) + "', got " +
                        list.describe());
-    std::vector<std::vector<Assignment>> next;
-    for (const std::vector<Assignment>& partial : combinations)
-      for (const YamlValue& item : list.items()) {
-        next.push_back(partial);
-        next.back().push_back({key, yaml_text(item.node()), item.location()});
-      }
-    combinations = std::move(next);
+    Dimension d;
+    for (const YamlValue& item : list.items())
+      d.emplace_back(yaml_text(item.node()), std::vector<Assignment>{{key, yaml_text(item.node()), item.location()}});
+    out.emplace_back(key, std::move(d));
   }
   map.finish();
-  return combinations;
+  return out;
 }
 
-std::vector<std::vector<Assignment>> read_combinations(YamlMap& study) {
-  const auto vary = study.find("vary");
-  const auto listed = study.find("combinations");
-  if (vary && listed)
-    throw listed->error("give either vary (their product is run) or combinations (each is run), not both");
-  if (vary) return product_of(*vary);
-  if (!listed) return {{}};  // every dataset once, with the base config
+// `axes`: named dimensions whose values each set several config keys together, e.g.
+// `degree: {1: {protocol[1].max_degree: 1, protocol[2].max_degree: 1}, 2: {...}}`.
+std::vector<std::pair<std::string, Dimension>> axis_dimensions(const YamlValue& axes) {
+  YamlMap map(axes);
+  std::vector<std::pair<std::string, Dimension>> out;
+  for (const std::string& name : map.keys()) {
+    YamlMap values(map.get(name));
+    if (values.keys().empty()) throw values.value().error("expected the axis '" + excerpt(name) + "' to have values");
+    Dimension d;
+    for (const std::string& label : values.keys()) d.emplace_back(label, read_assignments(values.get(label)));
+    values.finish();
+    out.emplace_back(name, std::move(d));
+  }
+  map.finish();
+  return out;
+}
+
+// `combinations`, each run's coordinates and overrides listed; one empty one when absent.
+std::vector<Combination> listed_combinations(const std::optional<YamlValue>& listed) {
+  if (!listed) return {Combination{}};
   if (!listed->is_sequence() || listed->items().empty())
     throw listed->error("expected a non-empty list of mappings (config key: value), got " + listed->describe());
-  std::vector<std::vector<Assignment>> out;
-  for (const YamlValue& item : listed->items()) out.push_back(read_assignments(item));
+  std::vector<Combination> out;
+  for (const YamlValue& item : listed->items()) {
+    Combination c;
+    c.sets = read_assignments(item);
+    for (const Assignment& a : c.sets) c.swept.emplace_back(a.key, a.value);
+    out.push_back(std::move(c));
+  }
   return out;
+}
+
+// The study's runs per dataset: `combinations` (each listed run) crossed with the product of
+// the `vary` keys and the `axes`, in file order with the last dimension varying fastest.
+std::vector<Combination> read_combinations(YamlMap& study) {
+  std::vector<std::pair<std::string, Dimension>> dimensions;
+  if (const auto vary = study.find("vary")) dimensions = vary_dimensions(*vary);
+  if (const auto axes = study.find("axes")) {
+    auto more = axis_dimensions(*axes);
+    for (auto& d : more) {
+      for (const auto& [earlier, unused] : dimensions)
+        if (earlier == d.first) throw axes->error("'" + excerpt(d.first) + "' is both a vary key and an axis");
+      dimensions.push_back(std::move(d));
+    }
+  }
+  std::vector<Combination> runs = listed_combinations(study.find("combinations"));
+  for (const Combination& listed : runs)
+    for (const Assignment& a : listed.sets)
+      for (const auto& [name, unused] : dimensions)
+        if (a.key == name) throw InputError(a.where, "'" + excerpt(name) + "' is both listed in combinations and varied");
+  for (const auto& [name, dimension] : dimensions) {
+    std::vector<Combination> next;
+    for (const Combination& partial : runs)
+      for (const auto& [value, sets] : dimension) {
+        next.push_back(partial);
+        next.back().swept.emplace_back(name, value);
+        next.back().sets.insert(next.back().sets.end(), sets.begin(), sets.end());
+      }
+    runs = std::move(next);
+  }
+  return runs;
 }
 
 // The datasets, resolved against the study file's folder, each checked to be a folder here.
@@ -140,11 +196,11 @@ std::string run_hash(const std::string& command, const std::string& dataset, con
 }
 
 // The keys a report can tabulate against: "dataset" and every key a run varies.
-std::vector<std::string> swept_keys(const std::vector<std::vector<Assignment>>& combinations) {
+std::vector<std::string> swept_keys(const std::vector<Combination>& combinations) {
   std::vector<std::string> keys = {"dataset"};
-  for (const auto& combination : combinations)
-    for (const Assignment& a : combination)
-      if (std::find(keys.begin(), keys.end(), a.key) == keys.end()) keys.push_back(a.key);
+  for (const Combination& combination : combinations)
+    for (const auto& [key, value] : combination.swept)
+      if (std::find(keys.begin(), keys.end(), key) == keys.end()) keys.push_back(key);
   return keys;
 }
 
@@ -220,13 +276,13 @@ Study read_study_file(const std::string& path, const Registry& registry) {
   std::map<std::string, Dataset> read;  // each dataset read (and so validated) once
   for (const auto& [written, resolved] : datasets) {
     if (!read.count(resolved)) read.emplace(resolved, read_dataset(resolved));
-    for (const std::vector<Assignment>& combination : combinations) {
+    for (const Combination& combination : combinations) {
       std::vector<Assignment> assignments = fixed;
-      assignments.insert(assignments.end(), combination.begin(), combination.end());
+      assignments.insert(assignments.end(), combination.sets.begin(), combination.sets.end());
       StudyRun run;
       run.dataset = resolved;
       run.values.emplace_back("dataset", written);
-      for (const Assignment& a : combination) run.values.emplace_back(a.key, a.value);
+      run.values.insert(run.values.end(), combination.swept.begin(), combination.swept.end());
       run.config = run_config(base, assignments, registry);
       const ConfigKeyLocator locate = [&](const std::string& key) { return locate_key(assignments, base_file, key); };
       check_fit_sizes(read.at(resolved), run.config, locate);
@@ -234,7 +290,7 @@ Study read_study_file(const std::string& path, const Registry& registry) {
       run.hash = run_hash(out.command, resolved, run.config);
       for (const StudyRun& earlier : out.runs)
         if (earlier.hash == run.hash)
-          throw InputError(combination.empty() ? InputLocation{path, 0, "datasets"} : combination.back().where,
+          throw InputError(combination.sets.empty() ? InputLocation{path, 0, "datasets"} : combination.sets.back().where,
                            "two runs resolve to the same config (" + describe_run(earlier) + " and " +
                                describe_run(run) + "): a study runs each config once");
       out.runs.push_back(std::move(run));

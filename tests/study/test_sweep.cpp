@@ -116,6 +116,23 @@ TEST_F(StudyTest, CombinationsRunEachListedMappingOnce) {
   EXPECT_EQ(s.runs[0].config.get_section("data").get_int("max_points"), 10);
 }
 
+TEST_F(StudyTest, AxesSetSeveralKeysTogetherAndCrossCombinationsAndVary) {
+  const Study s = read_study_file(
+      study(kTinySet + "combinations:\n  - {data.max_points: 8}\n  - {data.max_points: 9}\n"
+                       "vary:\n  optimizer.name: [bfgs]\n"
+                       "axes:\n  optimizer_budget:\n    small: {optimizer.max_iterations: 5, optimizer.max_evaluations: 9}\n"
+                       "    large: {optimizer.max_iterations: 50, optimizer.max_evaluations: 90}\n"),
+      testing::program_registry());
+  ASSERT_EQ(s.runs.size(), 4u);  // 2 listed × 1 × 2
+  const StudyRun& r = s.runs[1];
+  EXPECT_EQ(r.values, (std::vector<std::pair<std::string, std::string>>{
+                          {"dataset", s.runs[0].values[0].second}, {"data.max_points", "8"}, {"optimizer.name", "bfgs"},
+                          {"optimizer_budget", "large"}}));
+  EXPECT_EQ(r.config.get_component("optimizer").options.get_int("max_iterations"), 50);
+  EXPECT_EQ(r.config.get_component("optimizer").options.get_int("max_evaluations"), 90);
+  EXPECT_EQ(s.runs[2].config.get_section("data").get_int("max_points"), 9);
+}
+
 TEST_F(StudyTest, EveryMistakeIsAnErrorWithTheStudyFileAndLine) {
   struct Case {
     std::string body, expected;
@@ -126,7 +143,9 @@ TEST_F(StudyTest, EveryMistakeIsAnErrorWithTheStudyFileAndLine) {
       {"vary:\n  resolution.levels: [1, 0]\n", "study.yaml:3"},                  // out of its range
       {"vary:\n  optimizer.name: [bfgs, newton]\n", "newton"},                   // unknown optimiser
       {"vary:\n  optimizer.name: bfgs\n", "non-empty list"},                     // not a list
-      {"vary: {optimizer.name: [bfgs]}\ncombinations: [{data.max_points: 8}]\n", "not both"},
+      {"vary: {optimizer.name: [bfgs]}\ncombinations: [{optimizer.name: gauss-newton}]\n", "both listed"},
+      {"vary: {optimizer.name: [bfgs]}\naxes: {optimizer.name: {a: {data.max_points: 8}}}\n", "both a vary key"},
+      {"axes:\n  budget:\n    small: {optimizer.max_iteration: 5}\n", "study.yaml:4"},  // misspelt key in an axis
       {"vary:\n  optimizer.name: [bfgs, bfgs]\n", "same config"},                // duplicate runs
       {"command: simulate\n", "unknown command"},
       {"set: {resolution.levels: 9}\n", "study.yaml:2"},
