@@ -29,7 +29,7 @@ constexpr const char* kPlotPrefix = "plot-";
 struct ReportArgs {
   std::string db, out, x;
   std::vector<std::string> metrics, group;
-  bool no_plots = false, quiet = false;
+  bool no_plots = false, quiet = false, convergence = false;
 };
 
 const OutputFolderKind& report_output_kind() {
@@ -50,13 +50,13 @@ fs::path database_file(const std::string& given) {
 // The tables the command line names, else the database's defaults.
 std::vector<ReportTable> requested_tables(const ReportArgs& args, const ResultsDb& db) {
   if (args.metrics.empty()) {
-    if (!args.x.empty() || !args.group.empty())
-      throw InputError({"command line", 0, "--metric"}, "--x and --group need --metric (the metric to tabulate)");
+    if (!args.x.empty() || !args.group.empty() || args.convergence)
+      throw InputError({"command line", 0, "--metric"}, "--x, --group and --convergence need --metric (the metric to tabulate)");
     return default_report_tables(db);
   }
   if (args.x.empty()) throw InputError({"command line", 0, "--x"}, "--metric needs --x (the swept key of the rows)");
   std::vector<ReportTable> out;
-  for (const std::string& m : args.metrics) out.push_back({m, args.x, args.group});
+  for (const std::string& m : args.metrics) out.push_back({m, args.x, args.group, args.convergence});
   return out;
 }
 
@@ -110,6 +110,7 @@ void add_report_command(CLI::App& app, Context& context) {
   cmd->add_option("--metric", args->metrics, "metric to tabulate (repeatable; '*' matches any run of characters, e.g. 'param.*')");
   cmd->add_option("--x", args->x, "swept key of the rows (with --metric)");
   cmd->add_option("--group", args->group, "swept key whose values are the columns (repeatable)");
+  cmd->add_flag("--convergence", args->convergence, "add each column's observed order, Richardson limit and where it is within 1 % (numeric x)");
   cmd->add_flag("--no-plots", args->no_plots, "skip the figures (no matplotlib needed)");
   cmd->add_flag("--quiet", args->quiet, "no summary line");
   cmd->callback([&context, args] { run(context, *args); });

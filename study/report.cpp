@@ -4,6 +4,9 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
 #include <cstdlib>
 #include <map>
 #include <set>
@@ -81,8 +84,47 @@ std::vector<std::string> metric_names(const ResultsDb& db) {
   return column(db.query("SELECT DISTINCT name FROM metrics ORDER BY name"), 0);
 }
 
+// Ratios of consecutive x values that differ by less than this (relative) are one ratio.
+constexpr double kRatioTolerance = 1e-9;
+
+std::optional<ReportConvergence> converge(const std::array<double, 3>& x, const std::array<double, 3>& p,
+                                          const std::vector<std::pair<std::string, std::optional<double>>>& column) {
+  const double ratio = x[1] / x[0];
+  ReportConvergence c;
+  const double d1 = p[1] - p[0], d2 = p[2] - p[1];
+  const bool constant = d1 == 0 && d2 == 0;  // converged exactly: its own limit, order infinite
+  c.asymptotic = constant || (d1 * d2 > 0 && std::abs(d2) < std::abs(d1));
+  if (!c.asymptotic) return c;
+  c.order = constant ? std::numeric_limits<double>::infinity() : std::log(d1 / d2) / std::log(ratio);
+  c.limit = constant ? p[2] : p[2] + d2 / (std::pow(ratio, c.order) - 1);
+  for (auto it = column.rbegin(); it != column.rend(); ++it) {
+    if (!it->second || std::abs(*it->second - c.limit) > kLimitBand * std::abs(c.limit)) break;
+    c.within_from = it->first;
+  }
+  return c;
+}
+
+// The refinement of every column over the last three x values (report.hpp).
+void add_refinement(ReportTableData& t) {
+  const size_t n = t.x_values.size();
+  if (!t.convergence || !t.numeric_x || n < 3) return;
+  const std::array<double, 3> x = {std::strtod(t.x_values[n - 3].c_str(), nullptr),
+                                   std::strtod(t.x_values[n - 2].c_str(), nullptr),
+                                   std::strtod(t.x_values[n - 1].c_str(), nullptr)};
+  if (x[0] <= 0 || std::abs(x[2] / x[1] - x[1] / x[0]) > kRatioTolerance * x[1] / x[0] || x[1] / x[0] <= 1) return;
+  for (size_t c = 0; c < t.columns.size(); ++c) {
+    std::vector<std::pair<std::string, std::optional<double>>> column;
+    for (size_t r = 0; r < n; ++r)
+      column.emplace_back(t.x_values[r], t.cells[r][c] ? std::optional<double>(t.cells[r][c]->mean) : std::nullopt);
+    const auto& a = column[n - 3].second;
+    const auto& b = column[n - 2].second;
+    const auto& last = column[n - 1].second;
+    t.refinement.push_back(a && b && last ? converge(x, {*a, *b, *last}, column) : std::nullopt);
+  }
+}
+
 ReportTableData table_of(const ResultsDb& db, const DoneRuns& runs, const ReportTable& spec, const std::string& metric) {
-  ReportTableData t{metric, spec.x, spec.group, {}, {}, {}, false};
+  ReportTableData t{metric, spec.x, spec.group, spec.convergence, {}, {}, {}, false, {}};
   std::map<std::string, double> value;  // hash -> metric value
   for (const auto& r : db.query("SELECT hash, value FROM metrics WHERE value IS NOT NULL AND name = " + quoted(metric)))
     value[r[0]] = std::strtod(r[1].c_str(), nullptr);
@@ -115,7 +157,27 @@ ReportTableData table_of(const ResultsDb& db, const DoneRuns& runs, const Report
       t.cells.back().push_back(c);
     }
   }
+  add_refinement(t);
   return t;
+}
+
+// The refinement of each column as three more rows of the table.
+std::string refinement_rows(const ReportTableData& t) {
+  std::string order = "| observed order |", limit = "| Richardson limit |",
+              within = fmt::format("| within {:g} % from |", 100 * kLimitBand);
+  for (const auto& c : t.refinement) {
+    if (!c || !c->asymptotic) {
+      const char* why = c ? " not asymptotic |" : " — |";
+      order += why;
+      limit += why;
+      within += why;
+      continue;
+    }
+    order += fmt::format(" {:.2f} |", c->order);
+    limit += fmt::format(" {:.4g} |", c->limit);
+    within += c->within_from.empty() ? std::string(" beyond |") : " " + c->within_from + " |";
+  }
+  return order + "\n" + limit + "\n" + within + "\n";
 }
 
 }  // namespace
@@ -182,6 +244,9 @@ std::string markdown(const ReportTableData& t) {
     }
     text += "\n";
   }
+  if (!t.refinement.empty()) text += refinement_rows(t);
+  else if (t.convergence)
+    text += "\n(no refinement rows: they need a numeric x whose last three values have one ratio above 1)\n";
   if (pooled) text += "\nA cell with n > 1 is the mean of n runs that differ in keys neither in x nor in the group.\n";
   return text;
 }
@@ -202,10 +267,12 @@ std::string unfinished_runs_markdown(const ResultsDb& db) {
   return text;
 }
 
-nlohmann::json to_json(const ReportTable& t) { return {{"metric", t.metric}, {"x", t.x}, {"group", t.group}}; }
+nlohmann::json to_json(const ReportTable& t) {
+  return {{"metric", t.metric}, {"x", t.x}, {"group", t.group}, {"convergence", t.convergence}};
+}
 
 ReportTable report_table_from_json(const nlohmann::json& j) {
-  return {j.at("metric"), j.at("x"), j.at("group").get<std::vector<std::string>>()};
+  return {j.at("metric"), j.at("x"), j.at("group").get<std::vector<std::string>>(), j.value("convergence", false)};
 }
 
 nlohmann::json plot_json(const ReportTableData& t) {

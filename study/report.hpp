@@ -22,13 +22,30 @@ struct ReportCell {
   int count = 0;
 };
 
+/// Refinement of one column against a numeric x with a constant ratio r between its last
+/// three values (e.g. cells across 8, 16, 32): the observed order p = log(|d1/d2|)/log r of
+/// the last two differences, the Richardson limit P3 + d2/(r^p − 1), and the first x from
+/// which every value is within kLimitBand of that limit (docs/studies.md §5).
+struct ReportConvergence {
+  double order = 0, limit = 0;
+  std::string within_from;  ///< "" when no value is within the band
+  bool asymptotic = false;  ///< the last two differences have one sign (else no order, no limit)
+};
+
+/// The band of "within 1 % of its limit" (issue #17's mesh-independence question).
+inline constexpr double kLimitBand = 0.01;
+
 struct ReportTableData {
   std::string metric, x;
   std::vector<std::string> group;
+  bool convergence = false;
   std::vector<std::string> x_values;  ///< rows
   std::vector<std::string> columns;   ///< "key=value, …" of each group combination ("all" when no group)
   std::vector<std::vector<std::optional<ReportCell>>> cells;  ///< [row][column]
   bool numeric_x = false;
+  /// Per column, when asked for and x is numeric with a constant ratio over its last three
+  /// values (nullopt for a column without those three values).
+  std::vector<std::optional<ReportConvergence>> refinement;
 };
 
 /// The tables of `spec` (a metric pattern with `*` gives a table per matching metric). An

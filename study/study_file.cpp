@@ -214,11 +214,11 @@ std::string read_swept_key(const YamlValue& value, const std::vector<std::string
 // `report:` — a list of {metric, x, group}; x and group must be swept keys.
 std::vector<ReportTable> read_report(const YamlValue& list, const std::vector<std::string>& swept) {
   if (!list.is_sequence() || list.items().empty())
-    throw list.error("expected a non-empty list of tables ({metric: NAME, x: KEY, group: [KEYS]}), got " + list.describe());
+    throw list.error("expected a non-empty list of tables ({metric: NAME, x: KEY, group: [KEYS], convergence: BOOL}), got " + list.describe());
   std::vector<ReportTable> out;
   for (const YamlValue& item : list.items()) {
     YamlMap map(item);
-    map.expect({"metric", "x", "group"});
+    map.expect({"metric", "x", "group", "convergence"});
     ReportTable t;
     t.metric = map.get("metric").as_string();
     t.x = read_swept_key(map.get("x"), swept);
@@ -228,6 +228,7 @@ std::vector<ReportTable> read_report(const YamlValue& list, const std::vector<st
       else
         t.group.push_back(read_swept_key(*group, swept));
     }
+    if (const auto convergence = map.find("convergence")) t.convergence = convergence->as_bool();
     map.finish();
     out.push_back(std::move(t));
   }

@@ -15,6 +15,7 @@
 //   plots: false                      # each fit's figures (scripts/plot_fit.py); default off
 //   report:                           # the tables `twill report` makes by default
 //     - {metric: error.fit, x: resolution.levels, group: [optimizer.name]}
+//     - {metric: param.*, x: cells_across, group: [discretization], convergence: true}
 //
 // Everything is validated when the file is read, before any run starts: unknown keys of the
 // study, a config key or value the fit config rejects (the error names the study file, the
@@ -46,6 +47,7 @@ struct StudyRun {
 struct ReportTable {
   std::string metric, x;
   std::vector<std::string> group;
+  bool convergence = false;  ///< add the observed order and Richardson limit per column
 };
 
 struct Study {

@@ -92,6 +92,29 @@ TEST_F(ReportTest, APatternGivesATableEachAndUnknownNamesAreErrors) {
   }
 }
 
+TEST_F(ReportTest, RefinementRowsGiveTheObservedOrderAndTheLimit) {
+  // bfgs, seed 1: 1/cells + 0.01 at 8, 16, 32 cells: differences halve, order 1, limit 0.01.
+  const auto t = tabulate(db(), {"error.fit", "cells", {"optimizer.name", "seed"}, true}, "test")[0];
+  ASSERT_EQ(t.refinement.size(), 4u);
+  ASSERT_TRUE(t.refinement[0] && t.refinement[0]->asymptotic);
+  EXPECT_NEAR(t.refinement[0]->order, 1.0, 1e-9);
+  EXPECT_NEAR(t.refinement[0]->limit, 0.01, 1e-12);
+  EXPECT_EQ(t.refinement[0]->within_from, "");  // 0.04125 at 32 cells is far from 0.01
+  EXPECT_FALSE(t.refinement[3].has_value());       // gauss-newton seed 2 has no value at 32
+  // param.a22_Pa is 2000 everywhere: a constant is its own limit, within the band from the start.
+  const auto flat = tabulate(db(), {"param.a22_Pa", "cells", {}, true}, "test")[0];
+  ASSERT_EQ(flat.refinement.size(), 1u);
+  EXPECT_TRUE(flat.refinement[0]->asymptotic);
+  EXPECT_EQ(flat.refinement[0]->limit, 2000.0);
+  EXPECT_EQ(flat.refinement[0]->within_from, "8");
+  // gauss-newton seed 1 (0.235, 0.1725, 0.14125 at 8, 16, 32): order 1, limit its offset 0.11.
+  EXPECT_NEAR(t.refinement[2]->order, 1.0, 1e-9);
+  EXPECT_NEAR(t.refinement[2]->limit, 0.11, 1e-12);
+  const std::string md = markdown(t);
+  EXPECT_NE(md.find("| observed order | 1.00 |"), std::string::npos) << md;
+  EXPECT_NE(md.find("| within 1 % from | beyond |"), std::string::npos) << md;
+}
+
 TEST_F(ReportTest, DefaultTablesAreTheStudysElseErrorsAndTimeAgainstEachVaryingKey) {
   const auto tables = default_report_tables(db());
   ASSERT_EQ(tables.size(), 3u);  // error.fit against cells, optimizer.name, seed (dataset does not vary)
