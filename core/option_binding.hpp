@@ -141,18 +141,32 @@ OptionBinding<Struct> choice_option(std::string name, std::string Struct::*field
   return b;
 }
 
-/// Free text, not empty (a label that other entries refer to, e.g. a fit stage's "warp").
+/// Free text; `non_empty` rejects "" (then the default must not be "").
 template <class Struct>
-OptionBinding<Struct> text_option(std::string name, std::string Struct::*field, std::string doc) {
+OptionBinding<Struct> string_binding(std::string name, std::string Struct::*field, std::string doc, bool non_empty) {
   OptionBinding<Struct> b;
   b.name = name;
   b.doc = std::move(doc);
-  b.declare = [name, field](OptionSchema& s, const Struct& d, const std::string& line) {
-    s.add_string(name, d.*field, line).non_empty();
+  b.declare = [name, field, non_empty](OptionSchema& s, const Struct& d, const std::string& line) {
+    auto& spec = s.add_string(name, d.*field, line);
+    if (non_empty) spec.non_empty();
   };
   b.get = [field](const Struct& o) { return OptionValue(o.*field); };
   b.set = [field](Struct& o, const OptionValue& v) { o.*field = std::get<std::string>(v); };
   return b;
+}
+
+/// Free text, not empty (a label that other entries refer to, e.g. a fit stage's "warp").
+template <class Struct>
+OptionBinding<Struct> text_option(std::string name, std::string Struct::*field, std::string doc) {
+  return string_binding(std::move(name), field, std::move(doc), true);
+}
+
+/// A file's path; "" (the default) means not given, and the owner's validate() says whether
+/// that is allowed (e.g. the start-from stage's params, which it requires).
+template <class Struct>
+OptionBinding<Struct> path_option(std::string name, std::string Struct::*field, std::string doc) {
+  return string_binding(std::move(name), field, std::move(doc), false);
 }
 
 /// A choice stored as an enum: `names` pairs each allowed text with its enumerator (the one

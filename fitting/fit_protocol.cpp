@@ -60,6 +60,7 @@ void check_stages(const std::vector<std::unique_ptr<FitStage>>& stages, const Da
   for (size_t i = 0; i < stages.size(); ++i) {
     check.key = "protocol[" + std::to_string(i) + "]";
     stages[i]->check(check);
+    has_eta1 = has_eta1 || stages[i]->sets_all_parameters();
     if (const CurveStage* curve = stages[i]->curve_stage()) {
       if (std::find(check.curve_labels.begin(), check.curve_labels.end(), curve->label) != check.curve_labels.end())
         throw InputError(locate(check.key + ".label"), "a second tensile-curve stage labelled '" + curve->label + "'");
@@ -68,7 +69,7 @@ void check_stages(const std::vector<std::unique_ptr<FitStage>>& stages, const Da
     }
   }
   if (!has_eta1)
-    throw InputError(locate("protocol"), "the protocol needs a tensile-curve stage with term eta1 (a11: the "
+    throw InputError(locate("protocol"), "the protocol needs a tensile-curve stage with term eta1 or a start-from stage (a11: the "
                                          "initial guess and the other stiffnesses start from it)");
 }
 

@@ -40,6 +40,9 @@ class FitStage {
   /// A tensile-curve stage's identity (others: null): later stages refer to it by its label,
   /// and the protocol lists every one before the first stage runs (FitContext::declared_curves).
   virtual const CurveStage* curve_stage() const { return nullptr; }
+  /// True for a stage that sets every parameter itself (start-from): a protocol with one
+  /// needs no eta1 curve stage to start from.
+  virtual bool sets_all_parameters() const { return false; }
   /// Before any work: throws InputError (at check.locate(check.key + ".option")) for a stage
   /// this dataset or protocol cannot run, e.g. a cutoff of a stage that is not before it.
   virtual void check(const ProtocolCheck& check) const { (void)check; }

@@ -22,13 +22,17 @@ namespace {
 
 struct BendStageOptions {
   bool find_overhang = true;
+  bool fit_thickness = true;
   bool validate(std::string* error) const;
 };
 
 OptionBindings<BendStageOptions> bend_stage_bindings() {
   using S = BendStageOptions;
   return {bool_option<S>("find_overhang", &S::find_overhang,
-                         "also report the simulated overhang at 41.5 degrees (the bend experiment's search)")};
+                         "also report the simulated overhang at 41.5 degrees (the bend experiment's search)"),
+          bool_option<S>("fit_thickness", &S::fit_thickness,
+                         "fit the thickness (false: only the chord angles and overhangs at the current parameters, "
+                         "e.g. after a start-from stage)")};
 }
 
 bool BendStageOptions::validate(std::string* error) const {
@@ -53,6 +57,7 @@ class BendStage final : public FitStage {
     MaterialParameters& params = context.params;
     ParameterMap map(params, {"thickness_m"}, map_options);
     FitObjective objective(map, predictors);
+    if (!options_.fit_thickness) return report_unfitted(context, objective, map, out);
     objective.set_progress([&](const IterationRecord& it, const Eigen::VectorXd& x) {
       context.say(1, fmt::format("  bend it {:3d}: eps {:.4e}, tau {:.4g} mm", it.iteration, it.value,
                                  1e3 * x[0] * params.thickness_m));
@@ -73,6 +78,15 @@ class BendStage final : public FitStage {
   }
 
  private:
+  /// The chord angles (and overhangs) at the current parameters, nothing fitted.
+  void report_unfitted(FitContext& context, FitObjective& objective, ParameterMap& map, FitReport& out) {
+    const FitObjective& at = evaluated_at(context, objective, map, map.initial_x());
+    context.say(0, fmt::format("bend (thickness held at {:.4g} mm): error {:.2f} %", 1e3 * context.params.thickness_m,
+                               100 * mean_run_error(at, context.dataset().bend.size())));
+    for (size_t i = 0; i < context.dataset().bend.size(); ++i)
+      out.bend.push_back(result(context, context.dataset().bend[i], at.last_predictions()[i][0]));
+  }
+
   /// `objective` evaluated at the optimiser's final point x. Its predictors keep the states of
   /// their last trial, which may have failed: a re-evaluation that fails from there is tried
   /// once more on fresh experiments (from the flat strip), and a second failure is the stage's

@@ -12,6 +12,7 @@ void register_fit_stages(Registry& registry) {
   register_final_curves_stage(stages);
   register_validation_stage(stages);
   register_effect_fit_stage(stages);
+  register_start_from_stage(stages);
 }
 
 }  // namespace twill

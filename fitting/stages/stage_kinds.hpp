@@ -13,5 +13,6 @@ void register_bend_stage(FitStageFactories& stages);
 void register_final_curves_stage(FitStageFactories& stages);
 void register_validation_stage(FitStageFactories& stages);
 void register_effect_fit_stage(FitStageFactories& stages);
+void register_start_from_stage(FitStageFactories& stages);
 
 }  // namespace twill

@@ -10,6 +10,7 @@
 #include <sstream>
 #include <string>
 
+#include "fitting/fit_config.hpp"
 #include "tests/support/program_registry.hpp"
 
 namespace {
@@ -65,11 +66,14 @@ TEST(FitCommand, PrintConfigListsEveryProtocolKey) {
   EXPECT_EQ(r.status, 0) << r.output;
   for (const char* key : {"discretization:", "optimizer:", "name: \"ipopt\"", "resolution:", "repeats:", "protocol:"})
     EXPECT_NE(r.output.find(key), std::string::npos) << key << "\n" << r.output;
-  // Every stage of the default protocol, by its registered kind, with its options.
-  for (const twill::RegistryEntry& stage :
-       twill::testing::program_registry().find_category(twill::registry_category::kStage)->entries()) {
+  // Every stage of the default protocol, by its registered kind, with its options (kinds that
+  // need an input to run, as start-from its params.yaml, are not in the default protocol).
+  const twill::OptionSchema schema = twill::fit_config_schema();
+  const twill::Options defaults = twill::default_options(schema, &twill::testing::program_registry());
+  const auto* stages = twill::testing::program_registry().find_category(twill::registry_category::kStage);
+  for (const twill::ComponentChoice& stage : defaults.get_component_list("protocol")) {
     EXPECT_NE(r.output.find("name: \"" + stage.name + "\""), std::string::npos) << stage.name;
-    for (const twill::OptionSpec& option : stage.options.options())
+    for (const twill::OptionSpec& option : stages->at(stage.name).options.options())
       EXPECT_NE(r.output.find(option.name + ":"), std::string::npos) << stage.name << "." << option.name;
   }
 }

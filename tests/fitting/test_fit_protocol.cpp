@@ -275,5 +275,39 @@ TEST(FitProtocolAsData, AblationsByConfigAlone) {
   EXPECT_EQ(report.fit.size(), 3u);
 }
 
+// start-from (papers/transfer/): a fit's params.yaml evaluated again without fitting gives
+// the fit's own curves and chord angles, and the thickness stays; a missing file is an error
+// at the stage's key before any work.
+TEST(FitProtocolAsData, StartFromEvaluatesGivenParametersWithoutFitting) {
+  const Dataset dataset = read_dataset(std::string(TWILL_SOURCE_DIR) + "/examples/canvas");
+  const Options fit_config = without_stages(coarse_config({"protocol[*].warm_start=false"}), {"validation"});
+  const FitReport fitted = run_fit(dataset, fit_config, registry(), {});
+  const std::filesystem::path params = std::filesystem::temp_directory_path() / "twill-start-from-params.yaml";
+  write_params_file(fitted.parameters, params.string());
+  Options evaluate = coarse_config(
+      {"protocol=[{name: start-from, params: " + params.string() +
+       "}, {name: final-curves, warm_start: false}, {name: bend, fit_thickness: false, find_overhang: false}]"});
+  const FitReport again = run_fit(dataset, evaluate, registry(), {});
+  std::filesystem::remove(params);
+  EXPECT_TRUE(again.stages.empty());  // nothing fitted
+  EXPECT_EQ(again.parameters.thickness_m, fitted.parameters.thickness_m);
+  ASSERT_EQ(again.fit.size(), fitted.fit.size());
+  for (size_t i = 0; i < fitted.fit.size(); ++i)
+    EXPECT_NEAR(again.fit[i].avg_rel_error, fitted.fit[i].avg_rel_error, 1e-9) << fitted.fit[i].label;
+  ASSERT_EQ(again.bend.size(), fitted.bend.size());
+  for (size_t i = 0; i < fitted.bend.size(); ++i)
+    EXPECT_NEAR(again.bend[i].chord_angle_deg, fitted.bend[i].chord_angle_deg, 1e-6) << fitted.bend[i].label;
+
+  const Options missing = coarse_config({"protocol=[{name: start-from, params: /no/such/params.yaml}, {name: final-curves}]"});
+  try {
+    run_fit(dataset, missing, registry(), {});
+    FAIL() << "a missing params file was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("protocol[0].params"), std::string::npos) << e.what();
+  }
+  const Options no_start = coarse_config({"protocol=[{name: final-curves}]"});
+  EXPECT_THROW(run_fit(dataset, no_start, registry(), {}), InputError);
+}
+
 }  // namespace
 }  // namespace twill
