@@ -33,12 +33,21 @@ set:
 class MpiSweepTest : public ::testing::Test {
  protected:
   void SetUp() override {
+#if defined(__SANITIZE_ADDRESS__)
+    // AddressSanitizer refuses dlopen with RTLD_DEEPBIND (the plugin would bypass its malloc
+    // interceptors), and the MPI plugin needs it (study/mpi_shim/twill_mpi_shim.cpp): the MPI
+    // path is tested in the Release suite only.
+    GTEST_SKIP() << "MPI plugin (RTLD_DEEPBIND) cannot load under AddressSanitizer";
+#endif
     folder_ = fs::temp_directory_path() / ("twill-mpi-" + std::to_string(getpid()));
     fs::remove_all(folder_);
     fs::create_directories(folder_);
     std::ofstream(folder_ / "study.yaml") << kStudy;
   }
-  void TearDown() override { fs::remove_all(folder_); }
+  void TearDown() override {
+    std::error_code ec;  // nothing to remove when SetUp skipped
+    if (!folder_.empty()) fs::remove_all(folder_, ec);
+  }
 
   // Runs `prefix twill sweep study.yaml -o folder/out --quiet` and returns its exit status;
   // its terminal output goes to folder/<out>.log.
