@@ -19,6 +19,9 @@ namespace {
 
 using Rows = std::vector<std::vector<std::string>>;
 
+// The pseudo group key whose values are the matched metrics' names: one table, a column each.
+constexpr const char* kMetricKey = "metric";
+
 // The metrics every default report shows: the errors, and the time a run took.
 constexpr const char* kDefaultErrorPrefix = "error.";
 constexpr const char* kDefaultTimeMetric = "time.total";
@@ -123,26 +126,39 @@ void add_refinement(ReportTableData& t) {
   }
 }
 
-ReportTableData table_of(const ResultsDb& db, const DoneRuns& runs, const ReportTable& spec, const std::string& metric) {
-  ReportTableData t{metric, spec.x, spec.group, spec.convergence, {}, {}, {}, false, {}};
-  std::map<std::string, double> value;  // hash -> metric value
-  for (const auto& r : db.query("SELECT hash, value FROM metrics WHERE value IS NOT NULL AND name = " + quoted(metric)))
-    value[r[0]] = std::strtod(r[1].c_str(), nullptr);
-  std::map<std::pair<std::string, std::string>, std::vector<double>> samples;
-  for (const std::string& hash : runs.hashes) {
-    const auto& v = runs.values.at(hash);
-    const std::string x = v.count(spec.x) ? v.at(spec.x) : "";
-    std::string col;
-    for (const std::string& g : spec.group) col += (col.empty() ? "" : ", ") + g + "=" + (v.count(g) ? v.at(g) : "");
-    if (col.empty()) col = "all";
-    if (std::find(t.x_values.begin(), t.x_values.end(), x) == t.x_values.end()) t.x_values.push_back(x);
-    if (std::find(t.columns.begin(), t.columns.end(), col) == t.columns.end()) t.columns.push_back(col);
-    if (value.count(hash)) samples[{x, col}].push_back(value.at(hash));
+using Samples = std::map<std::pair<std::string, std::string>, std::vector<double>>;  // (x, column) -> values
+
+// A run's column: its group values ("all" without a group); the pseudo key `metric` gives the
+// metric's own name.
+std::string column_of(const std::vector<std::string>& group, const std::map<std::string, std::string>& values,
+                      const std::string& metric) {
+  std::string col;
+  for (const std::string& g : group)
+    col += (col.empty() ? "" : ", ") +
+           (g == kMetricKey ? metric : g + "=" + (values.count(g) ? values.at(g) : std::string()));
+  return col.empty() ? "all" : col;
+}
+
+// Every done run's value of each metric by (x, column); rows and columns in first-seen order.
+Samples collect(const ResultsDb& db, const DoneRuns& runs, const std::vector<std::string>& metrics, ReportTableData& t) {
+  Samples samples;
+  for (const std::string& metric : metrics) {
+    std::map<std::string, double> value;  // hash -> metric value
+    for (const auto& r : db.query("SELECT hash, value FROM metrics WHERE value IS NOT NULL AND name = " + quoted(metric)))
+      value[r[0]] = std::strtod(r[1].c_str(), nullptr);
+    for (const std::string& hash : runs.hashes) {
+      const auto& v = runs.values.at(hash);
+      const std::string x = v.count(t.x) ? v.at(t.x) : "";
+      const std::string col = column_of(t.group, v, metric);
+      if (std::find(t.x_values.begin(), t.x_values.end(), x) == t.x_values.end()) t.x_values.push_back(x);
+      if (std::find(t.columns.begin(), t.columns.end(), col) == t.columns.end()) t.columns.push_back(col);
+      if (value.count(hash)) samples[{x, col}].push_back(value.at(hash));
+    }
   }
-  t.numeric_x = std::all_of(t.x_values.begin(), t.x_values.end(), is_number);
-  if (t.numeric_x)
-    std::stable_sort(t.x_values.begin(), t.x_values.end(),
-                     [](const std::string& a, const std::string& b) { return std::strtod(a.c_str(), nullptr) < std::strtod(b.c_str(), nullptr); });
+  return samples;
+}
+
+void fill_cells(ReportTableData& t, const Samples& samples) {
   for (const std::string& x : t.x_values) {
     t.cells.emplace_back();
     for (const std::string& col : t.columns) {
@@ -157,6 +173,18 @@ ReportTableData table_of(const ResultsDb& db, const DoneRuns& runs, const Report
       t.cells.back().push_back(c);
     }
   }
+}
+
+// One table of `metrics` (several only when the group has the pseudo key `metric`).
+ReportTableData table_of(const ResultsDb& db, const DoneRuns& runs, const ReportTable& spec,
+                         const std::vector<std::string>& metrics, const std::string& title) {
+  ReportTableData t{title, spec.x, spec.group, spec.convergence, {}, {}, {}, false, {}};
+  const Samples samples = collect(db, runs, metrics, t);
+  t.numeric_x = std::all_of(t.x_values.begin(), t.x_values.end(), is_number);
+  if (t.numeric_x)
+    std::stable_sort(t.x_values.begin(), t.x_values.end(),
+                     [](const std::string& a, const std::string& b) { return std::strtod(a.c_str(), nullptr) < std::strtod(b.c_str(), nullptr); });
+  fill_cells(t, samples);
   add_refinement(t);
   return t;
 }
@@ -185,11 +213,17 @@ std::string refinement_rows(const ReportTableData& t) {
 std::vector<ReportTableData> tabulate(const ResultsDb& db, const ReportTable& spec, const std::string& where) {
   const DoneRuns runs = done_runs(db);
   check_key(spec.x, runs, where, "x");
-  for (const std::string& g : spec.group) check_key(g, runs, where, "group");
+  for (const std::string& g : spec.group)
+    if (g != kMetricKey) check_key(g, runs, where, "group");
   const std::vector<std::string> names = metric_names(db);
   std::vector<ReportTableData> out;
+  std::vector<std::string> matched;
   for (const std::string& name : names)
-    if (matches(spec.metric, name)) out.push_back(table_of(db, runs, spec, name));
+    if (matches(spec.metric, name)) matched.push_back(name);
+  const bool by_metric = std::find(spec.group.begin(), spec.group.end(), kMetricKey) != spec.group.end();
+  if (by_metric && !matched.empty()) out.push_back(table_of(db, runs, spec, matched, spec.metric));
+  if (!by_metric)
+    for (const std::string& name : matched) out.push_back(table_of(db, runs, spec, {name}, name));
   if (out.empty())
     throw InputError({where, 0, "metric"}, "no metric '" + spec.metric + "' in this database (its metrics: " +
                                                known_list(names) + "; a '*' matches any run of characters)");

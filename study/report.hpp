@@ -5,7 +5,9 @@
 // A cell is the metric over the done runs with that x and those group values: the value when
 // one run has it, else the mean of the n runs (the table says so: keys neither x nor group
 // then vary inside a cell). Failed and unfinished runs are listed apart, never averaged in.
-// x values sort as numbers when all are numbers, else in the study's run order.
+// x values sort as numbers when all are numbers, else in the study's run order. The group may
+// hold the pseudo key `metric`: one table whose columns are the metrics a pattern matches
+// (e.g. error.fit.* against dataset with group [metric]: the paper's Table 3 layout).
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>

@@ -223,10 +223,13 @@ std::vector<ReportTable> read_report(const YamlValue& list, const std::vector<st
     t.metric = map.get("metric").as_string();
     t.x = read_swept_key(map.get("x"), swept);
     if (const auto group = map.find("group")) {
+      // The pseudo key `metric`: a column per metric the pattern matches (report.hpp).
+      std::vector<std::string> groupable = swept;
+      groupable.push_back("metric");
       if (group->is_sequence())
-        for (const YamlValue& g : group->items()) t.group.push_back(read_swept_key(g, swept));
+        for (const YamlValue& g : group->items()) t.group.push_back(read_swept_key(g, groupable));
       else
-        t.group.push_back(read_swept_key(*group, swept));
+        t.group.push_back(read_swept_key(*group, groupable));
     }
     if (const auto convergence = map.find("convergence")) t.convergence = convergence->as_bool();
     map.finish();

@@ -78,6 +78,11 @@ TEST_F(ReportTest, KeysOutsideXAndGroupArePooledAndSaidSo) {
 
 TEST_F(ReportTest, APatternGivesATableEachAndUnknownNamesAreErrors) {
   EXPECT_EQ(tabulate(db(), {"param.*", "cells", {}}, "test").size(), 2u);
+  // Grouped by the pseudo key `metric`: one table, a column per matched metric.
+  const auto wide = tabulate(db(), {"param.*", "cells", {"metric"}}, "test");
+  ASSERT_EQ(wide.size(), 1u);
+  EXPECT_EQ(wide[0].columns, (std::vector<std::string>{"param.a11_Pa", "param.a22_Pa"}));
+  EXPECT_EQ(wide[0].cells[0][1]->mean, 2000.0);
   try {
     tabulate(db(), {"error.fti", "cells", {}}, "test");
     FAIL() << "an unknown metric was accepted";
