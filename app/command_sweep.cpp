@@ -26,7 +26,7 @@ constexpr int kMaxJobs = 256;
 struct SweepArgs {
   std::string study, out;
   int jobs = 1;
-  bool retry_failed = false, quiet = false;
+  bool retry_failed = false, refresh_metrics = false, quiet = false;
 };
 
 SweepOptions sweep_options(const SweepArgs& args) {
@@ -38,6 +38,7 @@ SweepOptions sweep_options(const SweepArgs& args) {
   options.twill = fs::read_symlink("/proc/self/exe");
   options.jobs = args.jobs;
   options.retry_failed = args.retry_failed;
+  options.refresh_metrics = args.refresh_metrics;
   return options;
 }
 
@@ -90,6 +91,8 @@ void add_sweep_command(CLI::App& app, Context& context) {
   cmd->add_option("-o,--out", args->out, "output folder (default out/sweep-<study file name>)");
   cmd->add_option("--jobs", args->jobs, "runs at once (default 1)");
   cmd->add_flag("--retry-failed", args->retry_failed, "re-run the runs an earlier sweep recorded as failed");
+  cmd->add_flag("--refresh-metrics", args->refresh_metrics,
+                "re-read every done run's report.json into its metrics (after twill learnt new ones)");
   cmd->add_flag("--quiet", args->quiet, "no progress output");
   cmd->callback([&context, args] { run(context, *args); });
 }

@@ -184,9 +184,24 @@ void ResultsDb::record(const std::string& hash, const RunOutcome& outcome) {
               file_)
         .bind(1, outcome.status).bind(2, outcome.exit_code).bind(3, outcome.error).bind(4, outcome.wall_s)
         .bind(5, utc_now()).bind(6, outcome.out_dir).bind(7, hash).run();
-    Statement(db_, "DELETE FROM metrics WHERE hash = ?", file_).bind(1, hash).run();
-    Statement insert(db_, "INSERT OR REPLACE INTO metrics(hash, name, value) VALUES(?, ?, ?)", file_);
-    for (const auto& [name, value] : outcome.metrics) insert.bind(1, hash).bind(2, name).bind(3, value).run();
+    write_metrics(hash, outcome.metrics);
+    execute("COMMIT");
+  } catch (...) {
+    execute("ROLLBACK");
+    throw;
+  }
+}
+
+void ResultsDb::write_metrics(const std::string& hash, const std::vector<std::pair<std::string, double>>& metrics) {
+  Statement(db_, "DELETE FROM metrics WHERE hash = ?", file_).bind(1, hash).run();
+  Statement insert(db_, "INSERT OR REPLACE INTO metrics(hash, name, value) VALUES(?, ?, ?)", file_);
+  for (const auto& [name, value] : metrics) insert.bind(1, hash).bind(2, name).bind(3, value).run();
+}
+
+void ResultsDb::replace_metrics(const std::string& hash, const std::vector<std::pair<std::string, double>>& metrics) {
+  execute("BEGIN IMMEDIATE");
+  try {
+    write_metrics(hash, metrics);
     execute("COMMIT");
   } catch (...) {
     execute("ROLLBACK");

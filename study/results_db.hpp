@@ -58,11 +58,16 @@ class ResultsDb {
   std::optional<std::string> meta(const std::string& key) const;
   void set_meta(const std::string& key, const std::string& value);
 
+  /// Replaces a finished run's metrics (its status and times stay): `twill sweep
+  /// --refresh-metrics` after twill learnt new ones.
+  void replace_metrics(const std::string& hash, const std::vector<std::pair<std::string, double>>& metrics);
+
   /// Rows of a query with text columns (for `twill report` and tests).
   std::vector<std::vector<std::string>> query(const std::string& sql) const;
 
  private:
   void check_schema(bool create);
+  void write_metrics(const std::string& hash, const std::vector<std::pair<std::string, double>>& metrics);
   void execute(const std::string& sql) const;
   sqlite3* db_ = nullptr;
   std::string file_;

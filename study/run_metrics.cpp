@@ -1,8 +1,12 @@
 // Metrics of a fit report for the study database (study/run_metrics.hpp).
 #include "study/run_metrics.hpp"
 
+#include <fmt/format.h>
+
 #include <map>
 #include <nlohmann/json.hpp>
+
+#include "core/material_law.hpp"
 
 namespace twill {
 namespace {
@@ -26,6 +30,10 @@ void curve_errors(const json& curves, const std::string& name, Metrics* out) {
   for (const auto& [label, s] : by_label) out->emplace_back(name + "." + label, s.first / s.second);
 }
 
+// The strains at which each fitted curve's slope η'(x) is recorded: within every example's
+// data (warp and weft cutoffs 0.12–0.15, shear 0.33), from the small-strain end to the knee.
+constexpr double kCurveStrains[] = {0.02, 0.05, 0.1};
+
 void parameter_metrics(const json& p, Metrics* out) {
   for (const char* key : {"a11_Pa", "a12_Pa", "a22_Pa", "G12_Pa", "thickness_m", "density_kg_m2"})
     out->emplace_back(std::string("param.") + key, p.at(key).get<double>());
@@ -38,6 +46,11 @@ void parameter_metrics(const json& p, Metrics* out) {
         out->emplace_back("param." + std::string(term) + "." + part + "[" + std::to_string(i) + "]",
                           values[i].get<double>());
     }
+  for (const char* term : {"eta1", "eta3", "eta4"}) {
+    const Curve curve{p.at(term).at("mu").get<std::vector<double>>(), p.at(term).at("alpha").get<std::vector<double>>()};
+    for (const double x : kCurveStrains)
+      out->emplace_back(fmt::format("curve.{}.slope@{:g}", term, x), evaluate_curve(curve, x).d1);
+  }
 }
 
 // Per stage: its last entry's error and degree (its finest level). Over all optimiser runs of

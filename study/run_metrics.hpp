@@ -9,11 +9,18 @@
 //   param.<name>                                 a11_Pa, a12_Pa, a22_Pa, G12_Pa, thickness_m,
 //                                                tau_a11_N_m, tau_a22_N_m, tau_G12_N_m,
 //                                                eta1.mu[0], eta1.alpha[0], …, effect parameters
+//   curve.<term>.slope@<x>                       η'(x) of a fitted curve (eta1, eta3, eta4) at
+//                                                x = 0.02, 0.05, 0.1: the curve as a function,
+//                                                which is identifiable where its coefficients
+//                                                are not (their order is arbitrary)
 //   drape.<label>_deg                            the simulated cantilever chord angle
 //   effect.<effect>.error_without, .error_with   the effect-fit stage's contrast
 //   time.<timing key>                            per-stage wall times (s), time.total
 //   count.iterations, count.evaluations,         optimiser iterations, objective evaluations and
 //   count.equilibrium_solves                     equilibrium solves, summed over the stages
+//   degree.stage.<stage>                         the degree a curve stage ended at
+//   count.optimizer_runs[_not_converged]         optimiser runs (stage × level × degree tried),
+//                                                and those that ended other than converged
 #include <string>
 #include <utility>
 #include <vector>

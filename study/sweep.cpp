@@ -253,6 +253,7 @@ class Scheduler {
     summary_.total = static_cast<int>(study_.runs.size());
     for (size_t i = 0; i < study_.runs.size(); ++i) {
       const auto status = db_.status(study_.runs[i].hash);
+      if (status == "done" && options_.refresh_metrics) refresh_metrics(study_.runs[i]);
       if (status == "done")
         ++summary_.already_done;
       else if (status == "failed" && !options_.retry_failed)
@@ -260,6 +261,13 @@ class Scheduler {
       else
         pending_.push_back(i);
     }
+  }
+  // A done run's metrics read again from its report.json (metrics a newer twill knows).
+  void refresh_metrics(const StudyRun& run) {
+    const fs::path report = options_.out / "runs" / run.hash / "fit" / "report.json";
+    std::ifstream in(report);
+    if (!in) throw std::runtime_error("--refresh-metrics: cannot read " + report.string());
+    db_.replace_metrics(run.hash, fit_metrics(nlohmann::json::parse(in)));
   }
   bool finished() const {
     const int workers = mpi_ ? mpi_->size() - 1 : 0;

@@ -28,6 +28,7 @@ struct SweepOptions {
   std::filesystem::path twill;  ///< the program each run executes (this one)
   int jobs = 1;                 ///< runs at once
   bool retry_failed = false;    ///< re-run the runs recorded as failed
+  bool refresh_metrics = false; ///< re-read the done runs' report.json into their metrics
 };
 
 struct SweepSummary {

@@ -182,6 +182,7 @@ TEST_F(StudyTest, SweepRecordsEveryRunAndSkipsWhatIsDone) {
     EXPECT_GT(m["error.stage.warp"], 0);
     EXPECT_GT(m["count.equilibrium_solves"], 0);
     EXPECT_TRUE(m.count("time.total"));
+    EXPECT_GT(m["curve.eta1.slope@0.05"], 0.0);
     EXPECT_TRUE(fs::exists(folder_ / "out" / "runs" / r.hash / "fit" / "params.yaml"));
   }
   const auto swept = db.query("SELECT value FROM swept WHERE key = 'optimizer.name' ORDER BY value");
@@ -190,6 +191,16 @@ TEST_F(StudyTest, SweepRecordsEveryRunAndSkipsWhatIsDone) {
   const SweepSummary second = run_sweep(s, options(), kSilent);
   EXPECT_EQ(second.already_done, 2);
   EXPECT_EQ(second.done + second.failed, 0);
+  // A database from before a metric existed: --refresh-metrics reads it from the reports again
+  // and leaves the runs' status and times alone.
+  const std::string hash = s.runs[0].hash;
+  const auto before = db.query("SELECT status, wall_s, finished FROM runs WHERE hash = '" + hash + "'");
+  ResultsDb(folder_ / "out" / "results.sqlite").query("DELETE FROM metrics WHERE name LIKE 'curve.%'");
+  SweepOptions refresh = options();
+  refresh.refresh_metrics = true;
+  EXPECT_EQ(run_sweep(s, refresh, kSilent).already_done, 2);
+  EXPECT_EQ(db.query("SELECT COUNT(*) FROM metrics WHERE hash = '" + hash + "' AND name LIKE 'curve.%'")[0][0], "9");
+  EXPECT_EQ(db.query("SELECT status, wall_s, finished FROM runs WHERE hash = '" + hash + "'"), before);
 }
 
 TEST_F(StudyTest, FailingAndCrashingRunsAreRecordedAndTheSweepGoesOn) {
