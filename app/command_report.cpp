@@ -64,6 +64,34 @@ std::string plot_file(size_t index, const ReportTableData& t) {
   return fmt::format("{}{:02d}-{}-vs-{}.png", kPlotPrefix, index + 1, safe_path_component(t.metric), safe_path_component(t.x));
 }
 
+void write_text(const fs::path& path, const std::string& text) {
+  std::ofstream out(path, std::ios::binary);
+  out << text;
+  if (!out.flush()) throw std::runtime_error("cannot write " + path.string());
+}
+
+// report.md's text and the plots' numbers (tables.json) of `tables`.
+std::pair<std::string, nlohmann::json> report_contents(const ResultsDb& db, const fs::path& file,
+                                                       const std::vector<ReportTableData>& tables, bool plots) {
+  const auto study = db.meta("study");
+  std::string text = fmt::format("# Study report\n\nDatabase: `{}`{}\n\n", fs::absolute(file).string(),
+                                 study ? fmt::format("; study file `{}`", *study) : "");
+  for (const auto& c : db.query("SELECT status, COUNT(*) FROM runs GROUP BY status ORDER BY status"))
+    text += fmt::format("- {} runs {}\n", c[1], c[0]);
+  nlohmann::json numbers = {{"tables", nlohmann::json::array()}};
+  for (size_t i = 0; i < tables.size(); ++i) {
+    const std::string png = plot_file(i, tables[i]);
+    text += fmt::format("\n## {} against {}\n\n{}", tables[i].metric, tables[i].x, markdown(tables[i]));
+    if (plots) text += fmt::format("\n![{} against {}]({})\n", tables[i].metric, tables[i].x, png);
+    nlohmann::json p = plot_json(tables[i]);
+    p["file"] = png;
+    numbers["tables"].push_back(p);
+  }
+  if (const std::string unfinished = unfinished_runs_markdown(db); !unfinished.empty())
+    text += "\n## Runs not done (left out of every table)\n\n" + unfinished;
+  return {text, numbers};
+}
+
 void run(Context& context, const ReportArgs& args) {
   const fs::path file = database_file(args.db);
   const ResultsDb db(file, ResultsDb::Access::read_only);
@@ -73,27 +101,11 @@ void run(Context& context, const ReportArgs& args) {
     for (ReportTableData& t : tabulate(db, spec, where)) tables.push_back(std::move(t));
   OutputFolder folder(report_output_kind(), args.out.empty() ? file.parent_path() / "report" : fs::path(args.out),
                       file.parent_path().string(), false);
-  std::string text = fmt::format("# Study report\n\nDatabase: `{}`{}\n\n", fs::absolute(file).string(),
-                                 db.meta("study") ? fmt::format("; study file `{}`", *db.meta("study")) : "");
-  const auto counts = db.query("SELECT status, COUNT(*) FROM runs GROUP BY status ORDER BY status");
-  for (const auto& c : counts) text += fmt::format("- {} runs {}\n", c[1], c[0]);
-  nlohmann::json plots = {{"tables", nlohmann::json::array()}};
-  for (size_t i = 0; i < tables.size(); ++i) {
-    text += fmt::format("\n## {} against {}\n\n{}", tables[i].metric, tables[i].x, markdown(tables[i]));
-    if (!args.no_plots) text += fmt::format("\n![{} against {}]({})\n", tables[i].metric, tables[i].x, plot_file(i, tables[i]));
-    nlohmann::json p = plot_json(tables[i]);
-    p["file"] = plot_file(i, tables[i]);
-    plots["tables"].push_back(p);
-  }
-  if (const std::string unfinished = unfinished_runs_markdown(db); !unfinished.empty())
-    text += "\n## Runs not done (left out of every table)\n\n" + unfinished;
-  std::ofstream(folder.staging() / kTablesFile) << plots.dump(1) << "\n";
+  const auto [text, numbers] = report_contents(db, file, tables, !args.no_plots);
+  write_text(folder.staging() / kTablesFile, numbers.dump(1) + "\n");
   if (!args.no_plots)
     run_python_script(context, "plot_report.py", {(folder.staging() / kTablesFile).string(), folder.staging().string()});
-  std::ofstream report(folder.staging() / kReportFile);
-  report << text;
-  if (!report.flush()) throw std::runtime_error("cannot write " + (folder.staging() / kReportFile).string());
-  report.close();
+  write_text(folder.staging() / kReportFile, text);
   folder.commit();
   if (!args.quiet)
     std::cout << fmt::format("twill report: {} tables of {} -> {}\n", tables.size(), file.string(),

@@ -51,6 +51,7 @@ void check_stages(const std::vector<std::unique_ptr<FitStage>>& stages, const Da
                   const FitConfig& config, const Registry& registry, const ConfigKeyLocator& locate) {
   ProtocolCheck check;
   check.dataset = &dataset;
+  check.registry = &registry;
   check.levels = config.resolution.levels;
   check.locate = locate;
   if (const RegistryCategory* effects = registry.find_category(registry_category::kEffect))
@@ -182,7 +183,8 @@ FitReport run_fit(const Dataset& dataset, const Options& options, const Registry
     context.set_output(&report);
     check_effects_data(dataset, config, registry);
     select_data(context);
-    start_from_slopes(context);
+    // A protocol that opens by setting every parameter (start-from) has no slopes to start from.
+    if (stages.empty() || !stages.front()->sets_all_parameters()) start_from_slopes(context);
     context.params.effects = config.effects;  // at their configured values: neutral by default
     for (const auto& stage : stages) {
       part = FitReport{};

@@ -24,6 +24,7 @@ struct CurveStage;
 /// What the up-front checks of a stage see: the dataset, and the stages before it.
 struct ProtocolCheck {
   const Dataset* dataset = nullptr;
+  const Registry* registry = nullptr;     ///< every registered part (a file read here names effects)
   std::string key;                    ///< this stage's key path, e.g. "protocol[3]"
   std::vector<std::string> curve_labels;  ///< labels of the tensile-curve stages before it
   int levels = 1;                     ///< the config's resolution levels

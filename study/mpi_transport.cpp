@@ -48,22 +48,19 @@ MpiTransport::MpiTransport() {
   if (!library)
     throw std::runtime_error("twill sweep was started by an MPI launcher but cannot load its MPI plugin: " +
                              std::string(dlerror()));
-  plugin_ = new Plugin{library,
-                       symbol<int (*)(int*, int*)>(library, "twill_mpi_init", file),
-                       symbol<int (*)(const char*, int, int, int)>(library, "twill_mpi_send", file),
-                       symbol<int (*)(int*, int*, int*)>(library, "twill_mpi_poll", file),
-                       symbol<int (*)(char*, int, int, int)>(library, "twill_mpi_receive", file),
-                       symbol<void (*)(int)>(library, "twill_mpi_abort", file),
-                       symbol<int (*)()>(library, "twill_mpi_finalize", file)};
+  plugin_ = std::make_unique<Plugin>(Plugin{
+      library,
+      symbol<int (*)(int*, int*)>(library, "twill_mpi_init", file),
+      symbol<int (*)(const char*, int, int, int)>(library, "twill_mpi_send", file),
+      symbol<int (*)(int*, int*, int*)>(library, "twill_mpi_poll", file),
+      symbol<int (*)(char*, int, int, int)>(library, "twill_mpi_receive", file),
+      symbol<void (*)(int)>(library, "twill_mpi_abort", file),
+      symbol<int (*)()>(library, "twill_mpi_finalize", file)});
   if (plugin_->init(&rank_, &size_) != 0) throw std::runtime_error("MPI_Init failed (through " + file + ")");
 }
 
-MpiTransport::~MpiTransport() {
-  if (!plugin_) return;
-  plugin_->finalize();
-  // The library stays loaded: Open MPI cannot be initialised twice in one process anyway.
-  delete plugin_;
-}
+// The library stays loaded: Open MPI cannot be initialised twice in one process anyway.
+MpiTransport::~MpiTransport() { plugin_->finalize(); }
 
 void MpiTransport::send(int destination, int tag, const std::string& bytes) const {
   if (plugin_->send(bytes.data(), static_cast<int>(bytes.size()), destination, tag) != 0)

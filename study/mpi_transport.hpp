@@ -3,6 +3,7 @@
 // through the MPI plugin the program loads at run time (study/mpi_shim/twill_mpi_shim.cpp
 // says why it is not linked). Rank 0 owns the study and the database; the other ranks only
 // run what it sends them.
+#include <memory>
 #include <optional>
 #include <string>
 
@@ -37,7 +38,7 @@ class MpiTransport {
 
  private:
   struct Plugin;
-  Plugin* plugin_ = nullptr;
+  std::unique_ptr<Plugin> plugin_;
   int rank_ = 0, size_ = 1;
 };
 

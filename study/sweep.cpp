@@ -12,10 +12,8 @@
 #include <csignal>
 #include <cstring>
 #include <fstream>
-#include <algorithm>
 #include <map>
 #include <optional>
-#include <set>
 #include <thread>
 #include <nlohmann/json.hpp>
 
@@ -41,25 +39,24 @@ bool is_empty_folder(const fs::path& p) {
 
 // A run as the process that runs it needs it: all a worker rank is sent.
 struct RunTask {
-  std::string hash, command, dataset, config_yaml, description;
+  std::string hash, command, dataset, config_yaml;
   std::string folder;  ///< DIR/runs/<hash>, absolute (a worker rank may have another working folder)
   bool plots = false;
 };
 
 RunTask task_of(const Study& study, const StudyRun& run, const SweepOptions& options) {
-  return {run.hash,           study.command, run.dataset, options_to_yaml(run.config), describe_run(run),
+  return {run.hash, study.command, run.dataset, options_to_yaml(run.config),
           fs::absolute(options.out / "runs" / run.hash).string(), study.plots};
 }
 
 nlohmann::json to_json(const RunTask& t) {
-  return {{"hash", t.hash},         {"command", t.command},         {"dataset", t.dataset}, {"config", t.config_yaml},
-          {"run", t.description}, {"folder", t.folder}, {"plots", t.plots}};
+  return {{"hash", t.hash},     {"command", t.command}, {"dataset", t.dataset},
+          {"config", t.config_yaml}, {"folder", t.folder},   {"plots", t.plots}};
 }
 
 RunTask task_from_json(const std::string& bytes) {
   const auto j = nlohmann::json::parse(bytes);
-  return {j.at("hash"),   j.at("command"), j.at("dataset"), j.at("config"),
-          j.at("run"), j.at("folder"),  j.at("plots")};
+  return {j.at("hash"), j.at("command"), j.at("dataset"), j.at("config"), j.at("folder"), j.at("plots")};
 }
 
 nlohmann::json to_json(const RunOutcome& o) {
@@ -271,41 +268,41 @@ class Scheduler {
   }
   bool finished() const {
     const int workers = mpi_ ? mpi_->size() - 1 : 0;
-    return next_ == pending_.size() && children_.size() == 0 && remote_.empty() && stopped_workers_ == workers;
+    return next_ == pending_.size() && running_.empty() && stopped_workers_ == workers;
   }
   // The next pending run, marked running on `rank`.
   RunTask dispatch(int rank) {
     const size_t i = pending_[next_++];
     db_.mark_running(study_.runs[i], study_.command, static_cast<int>(i), rank);
+    running_[study_.runs[i].hash] = i;
     return task_of(study_, study_.runs[i], options_);
   }
   void handle(const MpiMessage& message) {
     if (message.tag == kRequest) {
       if (next_ < pending_.size()) {
-        const RunTask task = dispatch(message.source);
-        remote_.insert(task.hash);
-        mpi_->send(message.source, kTask, to_json(task).dump());
+        mpi_->send(message.source, kTask, to_json(dispatch(message.source)).dump());
       } else {
         mpi_->send(message.source, kStop, "");
         ++stopped_workers_;
       }
     } else if (message.tag == kResult) {
       const auto j = nlohmann::json::parse(message.bytes);
-      const std::string hash = j.at("hash");
-      remote_.erase(hash);
-      record(hash, outcome_from_json(j.at("outcome")), message.source);
+      record(j.at("hash"), outcome_from_json(j.at("outcome")), message.source);
     }
   }
   void record(const std::string& hash, const RunOutcome& outcome, int rank) {
+    const auto it = running_.find(hash);
+    if (it == running_.end()) throw std::logic_error("twill sweep: an outcome of run " + hash + ", which is not running");
+    const StudyRun& run = study_.runs[it->second];
+    running_.erase(it);
     db_.record(hash, outcome);
     (outcome.status == "done" ? summary_.done : summary_.failed)++;
     busy_s_ += outcome.wall_s;
     const size_t finished = static_cast<size_t>(summary_.done + summary_.failed), to_run = pending_.size();
     const int slots = options_.jobs * (mpi_ ? mpi_->size() : 1);
     const double left = busy_s_ / static_cast<double>(finished) * static_cast<double>(to_run - finished) / slots;
-    const auto run = std::find_if(study_.runs.begin(), study_.runs.end(), [&](const StudyRun& r) { return r.hash == hash; });
     progress_(fmt::format("[{}/{}] {} {} ({}{}){}; {} failed so far{}", finished, to_run,
-                          outcome.status == "done" ? "done" : "FAILED", describe_run(*run), duration(outcome.wall_s),
+                          outcome.status == "done" ? "done" : "FAILED", describe_run(run), duration(outcome.wall_s),
                           mpi_ ? fmt::format(", rank {}", rank) : "", outcome.status == "done" ? "" : ": " + outcome.error,
                           summary_.failed, finished < to_run ? ", about " + duration(left) + " left" : ""));
   }
@@ -319,7 +316,7 @@ class Scheduler {
   SweepSummary summary_;
   std::vector<size_t> pending_;
   size_t next_ = 0;
-  std::set<std::string> remote_;  // hashes of runs going on worker ranks
+  std::map<std::string, size_t> running_;  // hash -> study index of every run started, not finished
   int stopped_workers_ = 0;
   double busy_s_ = 0;  // summed wall time of the finished runs, for the estimate
 };

@@ -46,7 +46,7 @@ class StartFrom final : public FitStage {
 
   void check(const ProtocolCheck& check) const override {
     try {
-      read_params_file(options_.params);
+      read_params_file(options_.params, check.registry);
     } catch (const InputError& e) {
       throw InputError(check.locate(check.key + ".params"), e.what());
     } catch (const std::exception& e) {
@@ -57,7 +57,7 @@ class StartFrom final : public FitStage {
   void run(FitContext& context, FitReport& out) override {
     (void)out;
     context.params = read_params_file(options_.params, &context.registry());
-    context.note("parameters from " + options_.params + " (start-from stage): the slopes' start replaced");
+    context.note("parameters from " + options_.params + " (start-from stage)");
   }
 
  private:
