@@ -132,8 +132,8 @@ Eigen::VectorXd TensileExperiment::lateral_strain_gradient(const Eigen::VectorXd
   return lateral_probe_.transpose() * (w / (1e-3 * setup_.width_mm));
 }
 
-Eigen::Vector3d TensileExperiment::largest_material_strain(const Eigen::VectorXd& q,
-                                                         int samples_across) const {
+std::vector<Eigen::Vector3d> TensileExperiment::material_strain_samples(const Eigen::VectorXd& q,
+                                                                       int samples_across) const {
   const StripSpec& s = discretization_->strip();
   const int nx = std::max(2, static_cast<int>(std::lround(samples_across * s.length_m / s.width_m)));
   const int ny = std::max(2, samples_across);
@@ -150,16 +150,20 @@ Eigen::Vector3d TensileExperiment::largest_material_strain(const Eigen::VectorXd
   const Eigen::VectorXd x = discretization_->point_evaluation(points) * q;
   const double theta = setup_.angle_deg * std::numbers::pi / 180.0;
   const Eigen::Vector2d d2(std::cos(theta), std::sin(theta)), d1(-std::sin(theta), std::cos(theta));
-  Eigen::Vector3d largest = Eigen::Vector3d::Zero();
-  for (size_t k = 0; k < points.size() / 4; ++k) {
+  std::vector<Eigen::Vector3d> samples(points.size() / 4);
+  for (size_t k = 0; k < samples.size(); ++k) {
     Eigen::Matrix<double, 3, 2> F;
     F.col(0) = (x.segment<3>(3 * (4 * k)) - x.segment<3>(3 * (4 * k + 1))) / (2 * h);
     F.col(1) = (x.segment<3>(3 * (4 * k + 2)) - x.segment<3>(3 * (4 * k + 3))) / (2 * h);
     const Eigen::Matrix2d E = 0.5 * (F.transpose() * F - Eigen::Matrix2d::Identity());
-    largest[0] = std::max(largest[0], std::abs(d1.dot(E * d1)));
-    largest[1] = std::max(largest[1], std::abs(d2.dot(E * d2)));
-    largest[2] = std::max(largest[2], std::abs(d1.dot(E * d2)));
+    samples[k] = Eigen::Vector3d(std::abs(d1.dot(E * d1)), std::abs(d2.dot(E * d2)), std::abs(d1.dot(E * d2)));
   }
+  return samples;
+}
+
+Eigen::Vector3d TensileExperiment::largest_material_strain(const Eigen::VectorXd& q, int samples_across) const {
+  Eigen::Vector3d largest = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& e : material_strain_samples(q, samples_across)) largest = largest.cwiseMax(e);
   return largest;
 }
 

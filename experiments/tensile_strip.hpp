@@ -142,6 +142,9 @@ class TensileExperiment {
   /// point_evaluation() positions at ±h, h = 1e-3 of a cell). Used for the strain cutoffs of
   /// paper §5.2 steps 4 and 6 ("the largest strain seen").
   Eigen::Vector3d largest_material_strain(const Eigen::VectorXd& q, int samples_across = 24) const;
+  /// The samples behind largest_material_strain: |Ẽ11|, |Ẽ22|, |Ẽ12| at each point of the
+  /// grid, which covers the strip evenly (so a share of samples is a share of its area).
+  std::vector<Eigen::Vector3d> material_strain_samples(const Eigen::VectorXd& q, int samples_across = 24) const;
   /// ∂(lateral strain)/∂q at q (#dofs).
   Eigen::VectorXd lateral_strain_gradient(const Eigen::VectorXd& q) const;
 

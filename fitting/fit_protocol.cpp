@@ -142,6 +142,7 @@ void merge(FitReport& report, FitReport&& part, const std::string& title, double
   append(report.fit, part.fit);
   append(report.bend, part.bend);
   append(report.validation, part.validation);
+  append(report.validation_strain, part.validation_strain);
   append(report.effects, part.effects);
   append(report.notes, part.notes);
   append(report.timing_s, part.timing_s);

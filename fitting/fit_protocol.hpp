@@ -23,9 +23,11 @@
 // the effects' parameters (fitting/fit_effects.hpp). The report is the stages' reports, merged
 // in order, with each stage's time. docs/fitting.md has the details and the measurements.
 #include <Eigen/Core>
+#include <array>
 #include <functional>
 #include <limits>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -53,6 +55,20 @@ struct FitCurve {
   double avg_rel_error = 0;    ///< Σ|p̂ − p̆| / Σ|p̆| (model.md §8)
   double avg_rel_error_without_offset = 0;  ///< validation: error at Δθ = 0
   std::vector<double> extension_mm, measured_N, simulated_N;
+};
+
+/// A validation test's nominal strip against the fitted strain box (paper §3.2, model.md §4):
+/// the largest strain components over the strip at the test's largest extension, and the
+/// cutoffs. Beyond a cutoff ψ is the quadratic extension of the fitted law, so a validation
+/// strip that goes there tests the extrapolation, not the fit (measured: poplin 67.5°,
+/// docs/fitting.md "Validation beyond the cutoffs").
+struct FitStrainRange {
+  std::string label;  ///< validation test label, e.g. "a67.5"
+  double angle_deg = 0;
+  double extension_mm = 0;
+  std::array<double, 3> largest{};              ///< |Ẽ11|, |Ẽ22|, |Ẽ12|
+  std::array<std::optional<double>, 3> cutoff;  ///< E11_max, E22_max, E12_max (nullopt: off)
+  std::array<double, 3> share_beyond{};         ///< share of the strip's area beyond each cutoff
 };
 
 struct FitStageRecord {
@@ -137,6 +153,7 @@ struct FitReport {
   std::vector<FitCurve> fit;
   std::vector<FitBend> bend;
   std::vector<FitCurve> validation;
+  std::vector<FitStrainRange> validation_strain;  ///< one per validation test
   std::vector<FitEffect> effects;  ///< one per effect-fit stage that ran
   std::vector<std::pair<std::string, double>> timing_s;  ///< per stage, then "total"
   std::vector<std::string> notes;  ///< choices made on the way (repeats, cutoffs, degrees)

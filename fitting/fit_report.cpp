@@ -69,6 +69,19 @@ json curve_json(const FitCurve& c) {
           {"simulated_N", c.simulated_N}};
 }
 
+constexpr const char* kStrainNames[3] = {"E11", "E22", "E12"};
+
+json strain_range_json(const FitStrainRange& r) {
+  json largest, cutoff, share;
+  for (int k = 0; k < 3; ++k) {
+    largest[kStrainNames[k]] = r.largest[k];
+    share[kStrainNames[k]] = r.share_beyond[k];
+    cutoff[kStrainNames[k]] = r.cutoff[k] ? json(*r.cutoff[k]) : json(nullptr);  // null: off
+  }
+  return {{"label", r.label}, {"angle_deg", r.angle_deg}, {"extension_mm", r.extension_mm},
+          {"largest", largest}, {"cutoff", cutoff}, {"share_of_area_beyond_cutoff", share}};
+}
+
 json report_json(const FitReport& r, const Options& config) {
   json j;
   j["dataset"] = r.dataset;
@@ -126,6 +139,8 @@ json report_json(const FitReport& r, const Options& config) {
                          {"overhang_mm", b.overhang_mm}});
   j["validation"] = json::array();
   for (const auto& c : r.validation) j["validation"].push_back(curve_json(c));
+  j["validation_strain_range"] = json::array();
+  for (const auto& v : r.validation_strain) j["validation_strain_range"].push_back(strain_range_json(v));
   j["effects"] = json::array();
   for (const FitEffect& e : r.effects) {
     json parameters = json::array();
@@ -149,6 +164,26 @@ json report_json(const FitReport& r, const Options& config) {
 
 // The effect-fit stages' results: per effect the error on its runs without and with it, and
 // its fitted parameters.
+// "0.212 (cutoff 0.109: beyond over 31 % of the strip)": a cell per strain component.
+std::string strain_range_cell(const FitStrainRange& r, int k) {
+  if (!r.cutoff[k]) return fmt::format("{:.3g} (no cutoff)", r.largest[k]);
+  return fmt::format("{:.3g} (cutoff {:.3g}{})", r.largest[k], *r.cutoff[k],
+                     r.share_beyond[k] > 0 ? fmt::format(": **beyond over {:.1f} %**", 100 * r.share_beyond[k]) : "");
+}
+
+std::string strain_range_markdown(const std::vector<FitStrainRange>& ranges) {
+  std::ostringstream md;
+  md << "\nThe largest strain over each validation strip at its largest extension against the fitted "
+        "cutoffs, and the share of the strip's area beyond them (paper §3.2): beyond a cutoff the law is "
+        "its quadratic extension, so there the validation tests the extrapolation, not the fit.\n\n"
+        "| test | extension | Ẽ11 | Ẽ22 | Ẽ12 |\n"
+        "|---|---|---|---|---|\n";
+  for (const FitStrainRange& r : ranges)
+    md << fmt::format("| {} | {:g} mm | {} | {} | {} |\n", r.label, r.extension_mm,
+                      strain_range_cell(r, 0), strain_range_cell(r, 1), strain_range_cell(r, 2));
+  return md.str();
+}
+
 std::string effects_markdown(const std::vector<FitEffect>& effects) {
   std::ostringstream md;
   md << "\n## Effects (docs/effects.md)\n\nPer effect-fit stage: the mean average relative error of its "
@@ -201,6 +236,7 @@ std::string report_markdown(const FitReport& r) {
   for (const auto& c : r.validation)
     md << fmt::format("| {} | {:g}° | {} | {:+.2f}° | {:.2f} % | {:.2f} % |\n", c.label, c.angle_deg, c.run,
                       c.delta_theta_deg, 100 * c.avg_rel_error, 100 * c.avg_rel_error_without_offset);
+  if (!r.validation_strain.empty()) md << strain_range_markdown(r.validation_strain);
   if (!r.effects.empty()) md << effects_markdown(r.effects);
   md << "\n## Stages\n\n| stage | resolution | degree | error | optimiser | status | iterations | "
         "solves | time |\n|---|---|---|---|---|---|---|---|---|\n";

@@ -30,6 +30,12 @@ TensileCurve StripCurves::run_anchored(TensileExperiment& experiment, const Tens
   return experiment.run(extensions);
 }
 
+std::optional<StripCurves::StrainField> StripCurves::anchor_strain_field(const TensileTest& test) const {
+  const auto a = anchors_.find(&test);
+  if (a == anchors_.end() || a->second.strain_samples.empty()) return std::nullopt;
+  return StrainField{a->second.extensions.back(), a->second.strain_samples};
+}
+
 std::vector<std::optional<StripCurves::Simulated>> StripCurves::simulate(const FitContext& context,
                                                                          const std::vector<Request>& requests,
                                                                          int level, bool angle_derivative) {
@@ -38,6 +44,7 @@ std::vector<std::optional<StripCurves::Simulated>> StripCurves::simulate(const F
     double angle_deg;
     std::vector<double> extensions;
     TensileCurve curve;
+    std::vector<Eigen::Vector3d> strain_samples;
   };
   std::vector<Group> groups;
   std::vector<size_t> group_of(requests.size());
@@ -46,7 +53,7 @@ std::vector<std::optional<StripCurves::Simulated>> StripCurves::simulate(const F
     auto g = std::find_if(groups.begin(), groups.end(), [&](const Group& x) {
       return x.test == q.run->test && x.angle_deg == q.angle_deg;
     });
-    if (g == groups.end()) g = groups.insert(groups.end(), Group{q.run->test, q.angle_deg, {}, {}});
+    if (g == groups.end()) g = groups.insert(groups.end(), Group{q.run->test, q.angle_deg, {}, {}, {}});
     g->extensions.insert(g->extensions.end(), q.run->extension_mm.begin(), q.run->extension_mm.end());
     group_of[r] = static_cast<size_t>(g - groups.begin());
   }
@@ -66,12 +73,14 @@ std::vector<std::optional<StripCurves::Simulated>> StripCurves::simulate(const F
     experiment.set_angle_sensitivity(angle_derivative);
     experiment.set_keep_states(angle_derivative);
     g.curve = run_anchored(experiment, *g.test, g.extensions);
+    if (angle_derivative && g.curve.completed && !g.curve.points.empty())
+      g.strain_samples = experiment.material_strain_samples(g.curve.points.back().q);
   });
   if (angle_derivative)
     for (Group& g : groups) {
       if (!g.curve.completed) continue;
       AngleAnchor& a = anchors_[g.test];
-      a = AngleAnchor{g.angle_deg, g.extensions, {}, {}};
+      a = AngleAnchor{g.angle_deg, g.extensions, {}, {}, std::move(g.strain_samples)};
       for (TensilePoint& p : g.curve.points) {
         a.q.push_back(std::move(p.q));
         a.dq_dangle.push_back(std::move(p.dq_dangle));

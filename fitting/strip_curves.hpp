@@ -34,12 +34,23 @@ class StripCurves {
   std::vector<std::optional<Simulated>> simulate(const FitContext& context, const std::vector<Request>& requests,
                                                  int level, bool angle_derivative = false);
 
+  /// The strain field |Ẽ11|, |Ẽ22|, |Ẽ12| over the strip
+  /// (TensileExperiment::material_strain_samples) of `test`'s angle anchor at its largest
+  /// extension [mm]; nullopt when the test has no anchor. Where a validation strip leaves the
+  /// fitted strain box, the model extrapolates (paper §3.2).
+  struct StrainField {
+    double extension_mm;
+    std::vector<Eigen::Vector3d> samples;
+  };
+  std::optional<StrainField> anchor_strain_field(const TensileTest& test) const;
+
  private:
   /// A test's equilibria at one angle with dq/dθ per point.
   struct AngleAnchor {
     double angle_deg = 0;
     std::vector<double> extensions;
     std::vector<Eigen::VectorXd> q, dq_dangle;
+    std::vector<Eigen::Vector3d> strain_samples;  ///< at the largest extension
   };
   /// Curve of `experiment` over `extensions`: warm-started from the test's angle anchor when
   /// it covers every extension (all points in parallel), by continuation otherwise or when a

@@ -86,6 +86,18 @@ void effect_metrics(const json& effects, Metrics* out) {
   }
 }
 
+// Per validation test and strain component: the largest strain over the strip and the share
+// of its area beyond the fitted cutoff (docs/fitting.md §7). Reports before it lack the key.
+void strain_range_metrics(const json& report, Metrics* out) {
+  if (!report.contains("validation_strain_range")) return;
+  for (const json& r : report.at("validation_strain_range"))
+    for (const auto& [component, largest] : r.at("largest").items()) {
+      const std::string name = "strain.validation." + r.at("label").get<std::string>() + "." + component;
+      out->emplace_back(name + ".largest", largest.get<double>());
+      out->emplace_back(name + ".share_beyond_cutoff", r.at("share_of_area_beyond_cutoff").at(component).get<double>());
+    }
+}
+
 }  // namespace
 
 std::vector<std::pair<std::string, double>> fit_metrics(const nlohmann::json& report) {
@@ -98,6 +110,7 @@ std::vector<std::pair<std::string, double>> fit_metrics(const nlohmann::json& re
     if (b.at("chord_angle_deg").is_number())
       out.emplace_back("drape." + b.at("label").get<std::string>() + "_deg", b.at("chord_angle_deg").get<double>());
   effect_metrics(report.at("effects"), &out);
+  strain_range_metrics(report, &out);
   for (const auto& [key, seconds] : report.at("timing_s").items()) out.emplace_back("time." + key, seconds.get<double>());
   return out;
 }

@@ -21,6 +21,10 @@
 //   degree.stage.<stage>                         the degree a curve stage ended at
 //   count.optimizer_runs[_not_converged]         optimiser runs (stage × level × degree tried),
 //                                                and those that ended other than converged
+//   strain.validation.<label>.<E11|E22|E12>.largest, .share_beyond_cutoff
+//                                                a validation strip's largest strain and the
+//                                                share of its area beyond the fitted cutoff
+//                                                (docs/fitting.md §7)
 #include <string>
 #include <utility>
 #include <vector>

@@ -6,6 +6,8 @@
 // hook (fitting/fit_effects.hpp).
 #include <fmt/format.h>
 
+#include <algorithm>
+
 #include "core/option_binding.hpp"
 #include "effects/misalignment.hpp"
 #include "fitting/fit_context.hpp"
@@ -52,9 +54,41 @@ class Validation final : public FitStage {
     OffsetSearch search(options_, angle_offset_effect(context));
     const auto samples = search.search(context, runs, context.finest_level);
     for (size_t i = 0; i < runs.size(); ++i) report_run(context, *runs[i], samples[i], out);
+    for (const TensileTest* test : tests_of(runs)) report_strain_range(context, *test, search.curves(), out);
   }
 
  private:
+  static std::vector<const TensileTest*> tests_of(const std::vector<const RunData*>& runs) {
+    std::vector<const TensileTest*> tests;
+    for (const RunData* d : runs)
+      if (std::find(tests.begin(), tests.end(), d->test) == tests.end()) tests.push_back(d->test);
+    return tests;
+  }
+
+  // Where the nominal strip leaves the fitted strain box, the validation tests the law's
+  // quadratic extension (paper §3.2) rather than the fit: said in the report and a note.
+  static void report_strain_range(FitContext& context, const TensileTest& test, const StripCurves& curves,
+                                  FitReport& out) {
+    const auto field = curves.anchor_strain_field(test);
+    if (!field) return;
+    FitStrainRange r{test.label, test.angle_deg, field->extension_mm, {}, {}, {}};
+    for (const MembraneTerm& term : membrane_terms()) {
+      const int k = term.strain_component;
+      r.cutoff[k] = context.params.cutoffs.*(term.cutoff);
+      for (const Eigen::Vector3d& e : field->samples) {
+        r.largest[k] = std::max(r.largest[k], e[k]);
+        if (r.cutoff[k] && e[k] > *r.cutoff[k]) r.share_beyond[k] += 1.0 / static_cast<double>(field->samples.size());
+      }
+      if (r.share_beyond[k] > 0)
+        context.note(fmt::format("validation {}: at {:g} mm the strip's {} passes the cutoff {}_max {:.4g} over "
+                                 "{:.1f} % of its area, up to {:.4g} ({:+.0f} %): there the model extrapolates "
+                                 "(paper §3.2)",
+                                 test.label, r.extension_mm, term.cutoff_name, term.cutoff_name, *r.cutoff[k],
+                                 100 * r.share_beyond[k], r.largest[k], 100 * (r.largest[k] / *r.cutoff[k] - 1)));
+    }
+    out.validation_strain.push_back(r);
+  }
+
   static void report_run(FitContext& context, const RunData& d, const std::vector<OffsetSearch::Sample>& samples,
                          FitReport& out) {
     const OffsetSearch::Sample* nominal = OffsetSearch::nominal(samples);

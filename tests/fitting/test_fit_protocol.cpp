@@ -322,5 +322,65 @@ TEST(FitProtocolAsData, StartFromEvaluatesGivenParametersWithoutFitting) {
   EXPECT_THROW(run_fit(dataset, no_start, registry(), {}), InputError);
 }
 
+// The validation stage states where its strips leave the fitted strain box (paper §3.2): the
+// largest strain over each nominal strip, the cutoffs, and a note for every cutoff passed
+// (docs/fitting.md "Validation beyond the cutoffs": poplin's 67.5° strips).
+TEST(FitProtocolAsData, ValidationStatesWhereItsStripsLeaveTheStrainBox) {
+  const Dataset dataset = read_dataset(std::string(TWILL_SOURCE_DIR) + "/examples/canvas");
+  YamlValue truth_file = load_yaml_file(std::string(TWILL_SOURCE_DIR) + "/examples/canvas-truth.yaml");
+  MaterialParameters truth = read_params(YamlMap(truth_file).get("params"));
+  const auto run_with_cutoffs = [&](std::optional<double> e11_max, std::optional<double> e12_max) {
+    truth.cutoffs.E11_max = e11_max;
+    truth.cutoffs.E22_max.reset();
+    truth.cutoffs.E12_max = e12_max;
+    const std::filesystem::path params = std::filesystem::temp_directory_path() / "twill-strain-box-params.yaml";
+    write_params_file(truth, params.string());
+    const FitReport r = run_fit(
+        dataset,
+        coarse_config({"resolution.coarse_cells_across=2", "data.max_points=6",
+                       "protocol=[{name: start-from, params: " + params.string() +
+                           "}, {name: validation, offset_iterations: 0}]"}),
+        registry(), {});
+    std::filesystem::remove(params);
+    return r;
+  };
+  const auto notes_beyond = [](const FitReport& r, const std::string& what) {
+    return std::count_if(r.notes.begin(), r.notes.end(), [&](const std::string& n) {
+      return n.find("passes the cutoff " + what) != std::string::npos;
+    });
+  };
+  const FitReport open_box = run_with_cutoffs(std::nullopt, std::nullopt);
+  std::vector<std::string> tests;
+  for (const FitCurve& v : open_box.validation)
+    if (std::find(tests.begin(), tests.end(), v.label) == tests.end()) tests.push_back(v.label);
+  ASSERT_EQ(open_box.validation_strain.size(), tests.size());
+  for (const FitStrainRange& r : open_box.validation_strain) {
+    std::printf("[measured] %s at %g mm: largest E11 %.4f, E22 %.4f, E12 %.4f\n", r.label.c_str(),
+                r.extension_mm, r.largest[0], r.largest[1], r.largest[2]);
+    for (int k = 0; k < 3; ++k) EXPECT_FALSE(r.cutoff[k].has_value());
+    // An off-axis strip stretches and shears the weave: every component is under way.
+    for (int k = 0; k < 3; ++k) EXPECT_GT(r.largest[k], 1e-3) << r.label << " component " << k;
+  }
+  EXPECT_EQ(notes_beyond(open_box, "E"), 0);
+
+  // Cutoffs just above and just below the largest shear of the strips: only the latter is passed.
+  double e12 = 0;
+  for (const FitStrainRange& r : open_box.validation_strain) e12 = std::max(e12, r.largest[2]);
+  EXPECT_EQ(notes_beyond(run_with_cutoffs(std::nullopt, 1.01 * e12), "E12_max"), 0);
+  const FitReport tight = run_with_cutoffs(0.5 * open_box.validation_strain[0].largest[0], 0.99 * e12);
+  EXPECT_GE(notes_beyond(tight, "E12_max"), 1);
+  EXPECT_GE(notes_beyond(tight, "E11_max"), 1);
+  EXPECT_EQ(*tight.validation_strain[0].cutoff[2], 0.99 * e12);
+  // 1 % below the largest shear only a corner of the strip passes; half the largest warp strain
+  // of the first strip, a larger part of it.
+  double shear_share = 0;
+  for (const FitStrainRange& r : tight.validation_strain) shear_share = std::max(shear_share, r.share_beyond[2]);
+  EXPECT_GT(shear_share, 0.0);
+  EXPECT_LT(shear_share, 0.1);
+  EXPECT_GT(tight.validation_strain[0].share_beyond[0], shear_share);
+  for (const FitStrainRange& r : open_box.validation_strain)
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(r.share_beyond[k], 0.0);
+}
+
 }  // namespace
 }  // namespace twill
