@@ -33,16 +33,6 @@ struct FitArgs {
   bool quiet = false, print_config = false, no_plots = false, force = false;
 };
 
-// Where a config key got its value: the last --set that sets it (core/config.hpp
-// override_sets_key), else the config file, else the defaults (whose limits are the schema's).
-InputLocation config_key_location(const FitArgs& args, const std::string& key) {
-  for (auto it = args.sets.rbegin(); it != args.sets.rend(); ++it) {
-    const std::string assigned = it->substr(0, it->find('='));
-    if (override_sets_key(assigned.substr(0, assigned.find_last_not_of(' ') + 1), key)) return {"--set", 0, key};
-  }
-  return {args.config.empty() ? "default config" : args.config, 0, key};
-}
-
 // Runs the protocol; when a stage fails after others finished, keeps their report in
 // OUTDIR.incomplete and says so in the error (the error keeps its kind: bad input or failure).
 FitReport run_fit_keeping_finished(const Dataset& dataset, const Options& config, const Registry& registry,
@@ -88,7 +78,7 @@ void run(Context& context, const FitArgs& args) {
   if (args.dataset.empty()) throw InputError({"", 0, "DATASET"}, "twill fit needs a dataset folder");
   // Bad data, impossible sizes and an unacceptable OUTDIR fail before any work.
   const Dataset dataset = read_dataset(args.dataset);
-  const ConfigKeyLocator locate = [&](const std::string& key) { return config_key_location(args, key); };
+  const ConfigKeyLocator locate = [&](const std::string& key) { return command_line_key_location(args.sets, args.config, key); };
   check_fit_sizes(dataset, config, locate);
   check_fit_protocol(dataset, config, context.registry, locate);
   FitOutputFolder folder(args.out.empty() ? default_fit_folder(dataset.name) : std::filesystem::path(args.out),

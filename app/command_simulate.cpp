@@ -7,12 +7,17 @@
 //   twill simulate --params P.yaml --test bend --angle-deg A (--overhang-mm L[,L2...] | --find-overhang)
 //                  [--width-mm 25] [--resolution 4x64] [--json] [--mesh-out FILE.obj]
 //
+//   twill simulate --params P.yaml -c SIMULATION.yaml [--set KEY=VALUE ...] [--out FILE] [--json]
+//
 // --test is any registered experiment (`twill list experiment`); its schedule is given by
 // --extensions-mm (tensile, validation) or --overhang-mm (bend). Output: CSV with the schedule,
 // the observable and the experiment's extra columns (stdout without --out), or one JSON
 // object with --json. --find-overhang (bend only): `overhang_mm=<v>` for a 41.5° chord.
 // The params.yaml's effects (effects/effect_experiment.hpp) act on the simulation: a curve
 // with an effect on is this one command (rate effects need --rate-mm-min, their clock).
+// With -c/--set the simulation is a config (experiments/simulate_config.hpp: experiment and
+// discretization with their options, angle, schedule, a reference curve whose errors --json
+// reports), the form a study's `command: simulate` runs; the flags it replaces are refused then.
 #include <cstdio>
 #include <functional>
 #include <fstream>
@@ -30,18 +35,20 @@
 #include "effects/effect_experiment.hpp"
 #include "experiments/experiment.hpp"
 #include "experiments/predictors.hpp"
+#include "experiments/simulate_config.hpp"
 
 namespace twill {
 namespace {
 
 struct SimulateArgs {
-  std::string params, test, discretization = "catmull-clark-kl", resolution, out, mesh_out;
+  std::string params, test, discretization = "catmull-clark-kl", resolution, out, mesh_out, config;
+  std::vector<std::string> sets;
   double angle_deg = 90;
   std::optional<double> width_mm, gauge_mm, rate_mm_min;
   std::string extensions;
   std::optional<std::string> overhangs;
   std::vector<std::string> options, experiment_options;
-  bool find_overhang = false, json = false, out_of_plane = false;
+  bool find_overhang = false, json = false, out_of_plane = false, angle_given = false;
 };
 
 // Comma-separated numbers given as `option`, each checked by `check` (which returns a
@@ -76,10 +83,18 @@ Options entry_options(const Registry& registry, const RegistryEntry& entry, cons
   return options.get_section("o");
 }
 
-DiscretizationFactory make_factory(Registry& registry, const SimulateArgs& args) {
+// What one simulation needs, from the flags or from a config (experiments/simulate_config.hpp).
+struct SimulationSpec {
+  std::string test;
+  Options experiment_options;
+  std::string discretization;
+  Options discretization_options;
+  ExperimentInput input;
+  std::optional<ReferenceCurve> reference;
+};
+
+DiscretizationFactory make_factory(Registry& registry, const std::string& name, const Options& chosen) {
   const auto& category = registry.category<DiscretizationFactories>(registry_category::kDiscretization);
-  const Options chosen = entry_options(registry, category.at(args.discretization), args.options);
-  const std::string name = args.discretization;
   return [&category, name, chosen](const StripSpec& s, const MaterialParameters& p) {
     return category.create(name, chosen, s, p);
   };
@@ -96,8 +111,7 @@ void write_text(const std::string& path, const std::string& text) {
 
 // The experiment's input from the command line: geometry, schedule, resolution. Geometry the
 // command line leaves out comes from the experiment's options (0 here).
-ExperimentInput simulate_input(Registry& registry, const SimulateArgs& args, const Options& experiment_options,
-                               const MaterialParameters& p) {
+ExperimentInput simulate_input(const SimulateArgs& args, const Options& experiment_options) {
   ExperimentInput input;
   input.label = args.test + " (" + format_double(args.angle_deg) + "°)";
   input.angle_deg = args.angle_deg;
@@ -124,9 +138,51 @@ ExperimentInput simulate_input(Registry& registry, const SimulateArgs& args, con
       return violation.empty() ? violation : "extension on a " + format_double(gauge_mm) + " mm gauge: " + violation;
     });
   }
-  input.discretization = make_factory(registry, args);
-  input.start = p;
   return input;
+}
+
+SimulationSpec spec_from_flags(Registry& registry, const SimulateArgs& args) {
+  const std::string required = "required (or give the simulation as a config: -c FILE)";
+  if (args.test.empty()) throw InputError({"command line", 0, "--test"}, required);
+  if (!args.angle_given) throw InputError({"command line", 0, "--angle-deg"}, required);
+  checked_argument(args.angle_deg, limits::kAngle, "--angle-deg");
+  const auto& experiments = registry.category<ExperimentFactories>(registry_category::kExperiment);
+  if (!experiments.find(args.test))
+    throw InputError({"command line", 0, "--test"},
+                     "unknown experiment '" + excerpt(args.test) + "' (known: " + experiments.known_names() + ")");
+  std::vector<std::string> experiment_overrides = args.experiment_options;
+  if (args.out_of_plane) experiment_overrides.push_back("planar=false");
+  SimulationSpec spec;
+  spec.test = args.test;
+  spec.experiment_options = entry_options(registry, experiments.at(args.test), experiment_overrides);
+  const auto& shells = registry.category<DiscretizationFactories>(registry_category::kDiscretization);
+  spec.discretization = args.discretization;
+  spec.discretization_options = entry_options(registry, shells.at(args.discretization), args.options);
+  spec.input = simulate_input(args, spec.experiment_options);
+  return spec;
+}
+
+// The flags a config replaces (experiments/simulate_config.hpp): giving both is an error.
+constexpr const char* kConfigReplacedFlags[] = {"--test", "--angle-deg", "--width-mm", "--gauge-mm", "--extensions-mm",
+                                                "--rate-mm-min", "--overhang-mm", "--discretization", "--resolution",
+                                                "--option", "--experiment-option", "--out-of-plane"};
+
+SimulationSpec spec_from_config(Registry& registry, const SimulateArgs& args) {
+  const OptionSchema schema = simulate_config_schema();
+  Options config = args.config.empty() ? default_options(schema, &registry)
+                                       : read_config_file(args.config, schema, &registry);
+  apply_overrides(config, schema, &registry, args.sets);
+  const ConfigKeyLocator locate = [&](const std::string& key) { return command_line_key_location(args.sets, args.config, key); };
+  check_simulate_config(config, args.params, registry, locate);
+  const ComponentChoice& experiment = config.get_component("experiment");
+  const ComponentChoice& discretization = config.get_component("discretization");
+  SimulationSpec spec{experiment.name, experiment.options, discretization.name, discretization.options, {}, {}};
+  spec.input.angle_deg = config.get_double("angle_deg");
+  spec.input.label = spec.test + " (" + format_double(spec.input.angle_deg) + "°)";
+  spec.input.rate_mm_min = config.get_double("rate_mm_min");
+  spec.input.schedule = simulate_schedule(config, locate);
+  if (!config.get_string("reference").empty()) spec.reference = read_reference_curve(config.get_string("reference"));
+  return spec;
 }
 
 // The schedule flag each experiment reads, by its scheduled quantity.
@@ -152,11 +208,13 @@ std::string run_as_csv(const Experiment& experiment, const ExperimentRun& run) {
   return text.str();
 }
 
-nlohmann::json run_as_json(const Experiment& experiment, const ExperimentRun& run, const SimulateArgs& args) {
+nlohmann::json run_as_json(const Experiment& experiment, const ExperimentRun& run, const SimulationSpec& spec) {
   nlohmann::json j;
-  j["test"] = args.test;
-  j["angle_deg"] = args.angle_deg;
-  j["discretization"] = args.discretization;
+  j["test"] = spec.test;
+  j["angle_deg"] = spec.input.angle_deg;
+  j["discretization"] = spec.discretization;
+  j["schedule_quantity"] = experiment.schedule_quantity();
+  j["observable"] = experiment.observable();
   j["completed"] = run.completed;
   j["message"] = run.message;
   j["wall_time_s"] = run.wall_time_s;
@@ -168,6 +226,10 @@ nlohmann::json run_as_json(const Experiment& experiment, const ExperimentRun& ru
     for (const auto& [name, values] : run.extras) point[name] = values[i];
     j["points"].push_back(point);
   }
+  if (spec.reference) {
+    std::vector<double> simulated(run.values.data(), run.values.data() + run.values.size());
+    j["reference"] = reference_errors(simulated, *spec.reference);
+  }
   return j;
 }
 
@@ -178,12 +240,12 @@ void write_mesh(const std::string& path, const Experiment& experiment) {
 }
 
 // --find-overhang: the bend experiment's overhang search (not a schedule).
-void find_overhang(Experiment& experiment, const SimulateArgs& args) {
+void find_overhang(Experiment& experiment, const SimulationSpec& spec, const SimulateArgs& args) {
   auto* bend = dynamic_cast<CantileverPredictor*>(&innermost(experiment));
   if (!bend) throw InputError({"command line", 0, "--find-overhang"}, "applies to the bend experiment only");
   const OverhangSearchResult r = bend->experiment().find_overhang();
   if (args.json) {
-    nlohmann::json j{{"test", args.test}, {"angle_deg", args.angle_deg}, {"discretization", args.discretization},
+    nlohmann::json j{{"test", spec.test}, {"angle_deg", spec.input.angle_deg}, {"discretization", spec.discretization},
                      {"overhang_mm", r.overhang_mm}, {"chord_angle_deg", r.chord_angle_deg}, {"solves", r.evaluations},
                      {"wall_time_s", r.wall_time_s}, {"converged", r.converged}, {"message", r.message}};
     std::cout << j.dump(2) << "\n";
@@ -194,22 +256,18 @@ void find_overhang(Experiment& experiment, const SimulateArgs& args) {
   if (!r.converged) throw std::runtime_error("the overhang search did not converge: " + r.message);
 }
 
-void run_simulation(Registry& registry, const SimulateArgs& args, const MaterialParameters& p) {
-  const auto& category = registry.category<ExperimentFactories>(registry_category::kExperiment);
-  if (!category.find(args.test))
-    throw InputError({"command line", 0, "--test"},
-                     "unknown experiment '" + excerpt(args.test) + "' (known: " + category.known_names() + ")");
-  const Options options = entry_options(registry, category.at(args.test), args.experiment_options);
-  const ExperimentInput input = simulate_input(registry, args, options, p);
-  std::unique_ptr<Experiment> experiment = create_experiment(registry, args.test, options, input);
-  if (args.find_overhang) return find_overhang(*experiment, args);
-  if (input.schedule.empty())
+void run_simulation(Registry& registry, SimulationSpec spec, const SimulateArgs& args, const MaterialParameters& p) {
+  spec.input.discretization = make_factory(registry, spec.discretization, spec.discretization_options);
+  spec.input.start = p;
+  std::unique_ptr<Experiment> experiment = create_experiment(registry, spec.test, spec.experiment_options, spec.input);
+  if (args.find_overhang) return find_overhang(*experiment, spec, args);
+  if (spec.input.schedule.empty())
     throw InputError({"command line", 0, schedule_flag(experiment->schedule_quantity())},
-                     "experiment '" + args.test + "' needs " + schedule_flag(experiment->schedule_quantity()));
+                     "experiment '" + spec.test + "' needs " + schedule_flag(experiment->schedule_quantity()));
   const ExperimentRun run = experiment->simulate(p);
   if (!args.mesh_out.empty()) write_mesh(args.mesh_out, *experiment);
-  write_text(args.out, args.json ? run_as_json(*experiment, run, args).dump(2) + "\n" : run_as_csv(*experiment, run));
-  if (!run.completed) throw std::runtime_error("the " + args.test + " simulation stopped early: " + run.message);
+  write_text(args.out, args.json ? run_as_json(*experiment, run, spec).dump(2) + "\n" : run_as_csv(*experiment, run));
+  if (!run.completed) throw std::runtime_error("the " + spec.test + " simulation stopped early: " + run.message);
 }
 
 }  // namespace
@@ -218,8 +276,11 @@ void add_simulate_command(CLI::App& app, Context& context) {
   auto args = std::make_shared<SimulateArgs>();
   CLI::App* cmd = app.add_subcommand("simulate", "simulate one tensile curve or cantilever from a params.yaml");
   cmd->add_option("--params", args->params, "parameter file (params.yaml)")->required()->check(CLI::ExistingFile);
-  cmd->add_option("--test", args->test, "registered experiment (twill list experiment)")->required();
-  cmd->add_option("--angle-deg", args->angle_deg, "strip axis vs weft: 0 weft, 90 warp, 45 bias")->required();
+  cmd->add_option("-c,--config", args->config, "the simulation as a config file (experiments/simulate_config.hpp)")
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--set", args->sets, "config override KEY=VALUE (repeatable), e.g. angle_deg=45");
+  cmd->add_option("--test", args->test, "registered experiment (twill list experiment)");
+  cmd->add_option("--angle-deg", args->angle_deg, "strip axis vs weft: 0 weft, 90 warp, 45 bias");
   cmd->add_option("--width-mm", args->width_mm, "strip width (tensile 50, bend 25)");
   cmd->add_option("--gauge-mm", args->gauge_mm, "tensile gauge length (75)");
   cmd->add_option("--extensions-mm", args->extensions, "tensile: comma-separated clamp extensions, applied in order");
@@ -235,11 +296,16 @@ void add_simulate_command(CLI::App& app, Context& context) {
   cmd->add_option("--mesh-out", args->mesh_out, "write the final equilibrium surface as OBJ");
   cmd->add_flag("--json", args->json, "print one JSON object");
   cmd->add_flag("--out-of-plane", args->out_of_plane, "tensile: solve in 3-D (experiment option planar=false)");
-  cmd->callback([args, &context] {
-    checked_argument(args->angle_deg, limits::kAngle, "--angle-deg");
+  cmd->callback([args, &context, cmd] {
+    args->angle_given = cmd->count("--angle-deg") > 0;
+    const bool from_config = !args->config.empty() || !args->sets.empty();
+    if (from_config)
+      for (const char* flag : kConfigReplacedFlags)
+        if (cmd->count(flag) > 0)
+          throw InputError({"command line", 0, flag}, "set by the config with -c/--set; give one or the other");
     const MaterialParameters p = read_params_file(args->params, &context.registry);
-    if (args->out_of_plane) args->experiment_options.push_back("planar=false");
-    run_simulation(context.registry, *args, p);
+    run_simulation(context.registry, from_config ? spec_from_config(context.registry, *args) : spec_from_flags(context.registry, *args),
+                   *args, p);
   });
 }
 

@@ -727,6 +727,15 @@ bool override_sets_key(const std::string& assigned, const std::string& key) {
   return false;
 }
 
+InputLocation command_line_key_location(const std::vector<std::string>& sets, const std::string& config_file,
+                                        const std::string& key) {
+  for (auto it = sets.rbegin(); it != sets.rend(); ++it) {
+    const std::string assigned = trim(it->substr(0, it->find('=')));
+    if (override_sets_key(assigned, key)) return {kOverrideSource, 0, key};
+  }
+  return {config_file.empty() ? "default config" : config_file, 0, key};
+}
+
 void apply_override(Options& config, const OptionSchema& schema, const Registry* registry,
                     const std::string& assignment) {
   const auto eq = assignment.find('=');

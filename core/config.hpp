@@ -239,6 +239,11 @@ std::string with_every_index(const std::string& key);
 /// or a section or list that holds it. Errors about `key` are then located at the override.
 bool override_sets_key(const std::string& assigned, const std::string& key);
 
+/// Where a command's config key got its value: the last `--set` override that sets it, else
+/// the config file (`config_file`, "" for the defaults). For errors found after resolving.
+InputLocation command_line_key_location(const std::vector<std::string>& sets, const std::string& config_file,
+                                        const std::string& key);
+
 /// The resolved config as YAML (block style; components as {name, options...}).
 std::string options_to_yaml(const Options& options);
 /// Writes options_to_yaml(); throws std::runtime_error if the file cannot be written.

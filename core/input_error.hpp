@@ -5,6 +5,7 @@
 // The message always names where the problem is: file, line (1-based, 0 when unknown) and the
 // key path (e.g. `tensile[2].width_mm`), so a researcher can go straight to it.
 #include <cstddef>
+#include <functional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -16,6 +17,9 @@ struct InputLocation {
   int line = 0;       ///< 1-based line; 0 when unknown
   std::string key;    ///< key path inside the file, e.g. `eta1.mu[0]`; empty for a whole row
 };
+
+/// Where a config key was set (its file and line, or "--set"), for the error message.
+using ConfigKeyLocator = std::function<InputLocation(const std::string& key_path)>;
 
 class InputError : public std::runtime_error {
  public:

@@ -14,9 +14,6 @@
 
 namespace twill {
 
-/// Where a config key was set (its file and line, or "--set"), for the error message.
-using ConfigKeyLocator = std::function<InputLocation(const std::string& key_path)>;
-
 /// Throws InputError (located by `locate` at the responsible key) when a simulated strip of
 /// the fit would exceed the memory limit; the message says what it would need and the limit.
 void check_fit_sizes(const Dataset& dataset, const Options& config, const ConfigKeyLocator& locate);

@@ -115,4 +115,19 @@ std::vector<std::pair<std::string, double>> fit_metrics(const nlohmann::json& re
   return out;
 }
 
+std::vector<std::pair<std::string, double>> simulate_metrics(const nlohmann::json& result) {
+  Metrics out;
+  if (result.contains("reference")) {
+    out.emplace_back("error.reference", result.at("reference").at("avg_rel_error").get<double>());
+    out.emplace_back("error.reference.worst", result.at("reference").at("worst_rel_error").get<double>());
+  }
+  const json& points = result.at("points");
+  if (!points.empty())
+    out.emplace_back("value.last", points.back().at(result.at("observable").get<std::string>()).get<double>());
+  out.emplace_back("count.points", static_cast<double>(points.size()));
+  out.emplace_back("count.newton_iterations", result.at("newton_iterations").get<double>());
+  out.emplace_back("time.total", result.at("wall_time_s").get<double>());
+  return out;
+}
+
 }  // namespace twill

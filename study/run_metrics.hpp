@@ -36,4 +36,13 @@ namespace twill {
 /// The metrics of one `twill fit` report (report.json, parsed).
 std::vector<std::pair<std::string, double>> fit_metrics(const nlohmann::json& report);
 
+/// What a study records of a `twill simulate --json` run (study/study_command.hpp):
+///   error.reference, error.reference.worst   avg and worst relative error against the
+///                                            config's reference (experiments/simulate_config.hpp)
+///   value.last                               the observable at the last schedule entry
+///                                            (force [N], chord angle [deg])
+///   count.points, count.newton_iterations    schedule entries that converged; Newton steps
+///   time.total                               the simulation's wall time (s)
+std::vector<std::pair<std::string, double>> simulate_metrics(const nlohmann::json& result);
+
 }  // namespace twill

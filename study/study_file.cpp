@@ -13,8 +13,7 @@
 #include "core/registry.hpp"
 #include "core/yaml_reader.hpp"
 #include "fitting/fit_config.hpp"
-#include "fitting/fit_input_checks.hpp"
-#include "fitting/fit_protocol.hpp"
+#include "study/study_command.hpp"
 
 namespace twill {
 namespace {
@@ -27,7 +26,8 @@ struct Assignment {
   InputLocation where;
 };
 
-const std::vector<std::string> kStudyKeys = {"command", "datasets", "config", "vary", "axes", "combinations", "set", "plots", "report"};
+const std::vector<std::string> kStudyKeys = {"command", "datasets", "params",       "config", "vary",
+                                             "axes",    "combinations", "set", "plots", "report"};
 
 // A YAML value as the text `--set` reads back: scalars as written, lists and mappings in flow
 // style (`[hysteresis]`, `{name: bfgs}`).
@@ -143,22 +143,35 @@ std::vector<Combination> read_combinations(YamlMap& study) {
   return runs;
 }
 
-// The datasets, resolved against the study file's folder, each checked to be a folder here.
-std::vector<std::pair<std::string, std::string>> read_datasets(YamlMap& study, const fs::path& folder) {
-  const YamlValue list = study.get("datasets");
+// The command's inputs (datasets or params files), resolved against the study file's folder,
+// each checked to exist here as a folder or a file.
+std::vector<std::pair<std::string, std::string>> read_inputs(YamlMap& study, const StudyCommand& command,
+                                                             const fs::path& folder) {
+  const std::string what = command.input_is_folder ? "folder" : "file";
+  const std::string& noun = command.input_coordinate;
+  const YamlValue list = study.get(command.input_key);
   if (!list.is_sequence() || list.items().empty())
-    throw list.error("expected a non-empty list of dataset folders, got " + list.describe());
+    throw list.error("expected a non-empty list of " + noun + " " + what + "s, got " + list.describe());
   std::vector<std::pair<std::string, std::string>> out;  // (as written, resolved)
   for (const YamlValue& item : list.items()) {
     const std::string written = item.as_string();
     const fs::path resolved = fs::path(written).is_absolute() ? fs::path(written) : folder / written;
     std::error_code ec;
-    if (!fs::is_directory(resolved, ec))
-      throw item.error("dataset folder '" + excerpt(resolved.string()) +
-                       "' does not exist or is not a folder (relative paths are read from the study file's folder)");
+    if (command.input_is_folder ? !fs::is_directory(resolved, ec) : !fs::is_regular_file(resolved, ec))
+      throw item.error(noun + " " + what + " '" + excerpt(resolved.string()) + "' does not exist or is not a " + what +
+                       " (relative paths are read from the study file's folder)");
     out.emplace_back(written, resolved.lexically_normal().string());
   }
   return out;
+}
+
+// The other commands' input lists are not this study's.
+void reject_other_inputs(YamlMap& study, const StudyCommand& command) {
+  for (const StudyCommand& other : study_commands())
+    if (other.input_key != command.input_key)
+      if (const auto given = study.find(other.input_key))
+        throw given->error("'" + other.input_key + "' is the input of `command: " + other.name + "`; this study runs " +
+                           command.name + " on '" + command.input_key + "'");
 }
 
 // Where a run's config key got its value: its last assignment that sets it, else the base
@@ -170,8 +183,8 @@ InputLocation locate_key(const std::vector<Assignment>& assignments, const std::
   return {base.empty() ? "default config" : base, 0, key};
 }
 
-Options run_config(const Options& base, const std::vector<Assignment>& assignments, const Registry& registry) {
-  static const OptionSchema schema = fit_config_schema();
+Options run_config(const OptionSchema& schema, const Options& base, const std::vector<Assignment>& assignments,
+                   const Registry& registry) {
   Options config = base;
   for (const Assignment& a : assignments) {
     try {
@@ -195,9 +208,9 @@ std::string run_hash(const std::string& command, const std::string& dataset, con
   return fmt::format("{:016x}", h);
 }
 
-// The keys a report can tabulate against: "dataset" and every key a run varies.
-std::vector<std::string> swept_keys(const std::vector<Combination>& combinations) {
-  std::vector<std::string> keys = {"dataset"};
+// The keys a report can tabulate against: the input ("dataset", "params") and every key a run varies.
+std::vector<std::string> swept_keys(const std::string& input, const std::vector<Combination>& combinations) {
+  std::vector<std::string> keys = {input};
   for (const Combination& combination : combinations)
     for (const auto& [key, value] : combination.swept)
       if (std::find(keys.begin(), keys.end(), key) == keys.end()) keys.push_back(key);
@@ -240,11 +253,6 @@ std::vector<ReportTable> read_report(const YamlValue& list, const std::vector<st
 
 }  // namespace
 
-const std::vector<std::string>& study_commands() {
-  static const std::vector<std::string> commands = {"fit"};
-  return commands;
-}
-
 Study read_study_file(const std::string& path, const Registry& registry) {
   const YamlValue root = load_yaml_file(path);
   YamlMap study(root);
@@ -252,49 +260,51 @@ Study read_study_file(const std::string& path, const Registry& registry) {
   Study out;
   out.path = path;
   const fs::path folder = fs::path(path).parent_path();
-  out.command = "fit";
-  if (const auto command = study.find("command")) {
-    out.command = command->as_string();
-    const auto& known = study_commands();
-    if (std::find(known.begin(), known.end(), out.command) == known.end())
-      throw command->error("unknown command '" + excerpt(out.command) + "' (a study runs: fit; simulate and " +
-                           "discover are not sweepable yet)");
+  const StudyCommand* command = &study_commands().front();
+  if (const auto given = study.find("command")) {
+    command = find_study_command(given->as_string());
+    if (!command) {
+      std::string known;
+      for (const StudyCommand& c : study_commands()) known += (known.empty() ? "" : ", ") + c.name;
+      throw given->error("unknown command '" + excerpt(given->as_string()) + "' (a study runs: " + known +
+                         "; discover is not sweepable yet)");
+    }
   }
+  out.command = command->name;
   if (const auto plots = study.find("plots")) out.plots = plots->as_bool();
-  const auto datasets = read_datasets(study, folder);
+  reject_other_inputs(study, *command);
+  const auto inputs = read_inputs(study, *command, folder);
+  const OptionSchema schema = command->schema();
   std::string base_file;
   Options base;
   if (const auto config = study.find("config")) {
     base_file = (folder / config->as_string()).string();
     check_readable_file(base_file, config->location());
-    base = read_config_file(base_file, fit_config_schema(), &registry);
+    base = read_config_file(base_file, schema, &registry);
   } else {
-    base = default_options(fit_config_schema(), &registry);
+    base = default_options(schema, &registry);
   }
   std::vector<Assignment> fixed;
   if (const auto set = study.find("set")) fixed = read_assignments(*set);
   const auto combinations = read_combinations(study);
-  if (const auto report = study.find("report")) out.report = read_report(*report, swept_keys(combinations));
+  if (const auto report = study.find("report")) out.report = read_report(*report, swept_keys(command->input_coordinate, combinations));
   study.finish();
 
-  std::map<std::string, Dataset> read;  // each dataset read (and so validated) once
-  for (const auto& [written, resolved] : datasets) {
-    if (!read.count(resolved)) read.emplace(resolved, read_dataset(resolved));
+  for (const auto& [written, resolved] : inputs) {
     for (const Combination& combination : combinations) {
       std::vector<Assignment> assignments = fixed;
       assignments.insert(assignments.end(), combination.sets.begin(), combination.sets.end());
       StudyRun run;
       run.dataset = resolved;
-      run.values.emplace_back("dataset", written);
+      run.values.emplace_back(command->input_coordinate, written);
       run.values.insert(run.values.end(), combination.swept.begin(), combination.swept.end());
-      run.config = run_config(base, assignments, registry);
+      run.config = run_config(schema, base, assignments, registry);
       const ConfigKeyLocator locate = [&](const std::string& key) { return locate_key(assignments, base_file, key); };
-      check_fit_sizes(read.at(resolved), run.config, locate);
-      check_fit_protocol(read.at(resolved), run.config, registry, locate);
+      command->check(resolved, run.config, registry, locate);
       run.hash = run_hash(out.command, resolved, run.config);
       for (const StudyRun& earlier : out.runs)
         if (earlier.hash == run.hash)
-          throw InputError(combination.sets.empty() ? InputLocation{path, 0, "datasets"} : combination.sets.back().where,
+          throw InputError(combination.sets.empty() ? InputLocation{path, 0, command->input_key} : combination.sets.back().where,
                            "two runs resolve to the same config (" + describe_run(earlier) + " and " +
                                describe_run(run) + "): a study runs each config once");
       out.runs.push_back(std::move(run));

@@ -1,10 +1,11 @@
 #pragma once
 // Study files of `twill sweep` (issue #17; docs/studies.md): a list of datasets and, for any
 // config key, a list of values; the study is their product (or an explicit list of
-// combinations), each run a `twill fit` with its own resolved config.
+// combinations), each run a `twill fit` (or `twill simulate`) with its own resolved config.
 //
-//   command: fit                      # the only command a study can run yet (default)
+//   command: fit                      # or simulate (study/study_command.hpp); default fit
 //   datasets: [../../examples/canvas] # folders, relative to the study file's folder
+//                                     # (simulate: params: [params.yaml files], same rule)
 //   config: base.yaml                 # optional base config (else the defaults), same folder rule
 //   vary:                             # any config key: a list of values; the product is run
 //     optimizer.name: [gauss-newton, bfgs]
@@ -33,11 +34,11 @@ class Registry;
 
 /// One run of a study: a dataset and a resolved config.
 struct StudyRun {
-  std::string dataset;  ///< the dataset folder (as resolved against the study file's folder)
+  std::string dataset;  ///< the input: dataset folder (fit) or params file (simulate), resolved
   /// The run's coordinates, in study order: ("dataset", as written in the study), then each
   /// varied key with its value as YAML text.
   std::vector<std::pair<std::string, std::string>> values;
-  Options config;    ///< the fit config: base config, `set`, then the run's values
+  Options config;    ///< the command's config: base config, `set`, then the run's values
   std::string hash;  ///< 16 hex digits of FNV-1a over command, dataset and the resolved config
 };
 
@@ -52,14 +53,11 @@ struct ReportTable {
 
 struct Study {
   std::string path;     ///< the study file
-  std::string command;  ///< "fit"
+  std::string command;  ///< "fit", "simulate" (study/study_command.hpp)
   bool plots = false;   ///< each run's figures
   std::vector<StudyRun> runs;
   std::vector<ReportTable> report;  ///< `report:` (x and group keys checked to be swept)
 };
-
-/// The commands a study can run (the study file's `command` values).
-const std::vector<std::string>& study_commands();
 
 /// Reads, expands and validates a study file (see the header comment); InputError on any
 /// problem, located in the study file.

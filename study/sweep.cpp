@@ -22,6 +22,7 @@
 #include "study/report.hpp"
 #include "study/results_db.hpp"
 #include "study/run_metrics.hpp"
+#include "study/study_command.hpp"
 
 namespace twill {
 namespace {
@@ -75,6 +76,12 @@ RunOutcome outcome_from_json(const nlohmann::json& j) {
   return o;
 }
 
+const StudyCommand& command_of(const RunTask& task) {
+  const StudyCommand* command = find_study_command(task.command);
+  if (!command) throw std::runtime_error("twill sweep: a run of unknown command '" + task.command + "'");
+  return *command;
+}
+
 // A child `twill <command>` for `task`, its terminal output in log.txt; never returns in the child.
 pid_t start_child(const RunTask& task, const fs::path& program) {
   const fs::path folder = task.folder;
@@ -84,9 +91,8 @@ pid_t start_child(const RunTask& task, const fs::path& program) {
     config << task.config_yaml;
     if (!config.flush()) throw std::runtime_error("twill sweep: cannot write " + (folder / "config.yaml").string());
   }
-  std::vector<std::string> args = {program.string(), task.command, task.dataset, "-c",
-                                   (folder / "config.yaml").string(), "-o", (folder / "fit").string(), "--quiet"};
-  if (!task.plots) args.push_back("--no-plots");
+  std::vector<std::string> args = {program.string()};
+  for (std::string& a : command_of(task).child_args(task.dataset, folder, task.plots)) args.push_back(std::move(a));
   const std::string log = (folder / "log.txt").string();
   const pid_t parent = getpid();
   const pid_t pid = fork();
@@ -122,7 +128,8 @@ RunOutcome outcome_of(const RunTask& task, int wait_status, double wall_s) {
   const fs::path folder = task.folder;
   RunOutcome o;
   o.wall_s = wall_s;
-  o.out_dir = (folder / "fit").string();
+  const StudyCommand& command = command_of(task);
+  o.out_dir = command.output(folder).string();
   if (WIFSIGNALED(wait_status)) {
     o.status = "failed";
     o.exit_code = -WTERMSIG(wait_status);
@@ -137,12 +144,11 @@ RunOutcome outcome_of(const RunTask& task, int wait_status, double wall_s) {
     return o;
   }
   try {
-    std::ifstream in(folder / "fit" / "report.json");
-    o.metrics = fit_metrics(nlohmann::json::parse(in));
+    o.metrics = command.metrics(command.result(folder));
     o.status = "done";
   } catch (const std::exception& e) {
     o.status = "failed";
-    o.error = std::string("the run ended without a readable report.json: ") + e.what();
+    o.error = "the run ended without a readable " + command.result(folder).filename().string() + ": " + e.what();
   }
   return o;
 }
@@ -259,12 +265,14 @@ class Scheduler {
         pending_.push_back(i);
     }
   }
-  // A done run's metrics read again from its report.json (metrics a newer twill knows).
+  // A done run's metrics read again from its result (metrics a newer twill knows).
   void refresh_metrics(const StudyRun& run) {
-    const fs::path report = options_.out / "runs" / run.hash / "fit" / "report.json";
-    std::ifstream in(report);
-    if (!in) throw std::runtime_error("--refresh-metrics: cannot read " + report.string());
-    db_.replace_metrics(run.hash, fit_metrics(nlohmann::json::parse(in)));
+    const StudyCommand* command = find_study_command(study_.command);
+    try {
+      db_.replace_metrics(run.hash, command->metrics(command->result(options_.out / "runs" / run.hash)));
+    } catch (const std::exception& e) {
+      throw std::runtime_error(std::string("--refresh-metrics: ") + e.what());
+    }
   }
   bool finished() const {
     const int workers = mpi_ ? mpi_->size() - 1 : 0;

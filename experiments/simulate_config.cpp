@@ -1,0 +1,75 @@
+// The config of `twill simulate -c` and of a study's simulate runs (experiments/simulate_config.hpp).
+#include "experiments/simulate_config.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/dataset.hpp"
+#include "core/input_limits.hpp"
+#include "core/params_io.hpp"
+#include "core/yaml_reader.hpp"
+
+namespace twill {
+
+OptionSchema simulate_config_schema() {
+  OptionSchema s;
+  s.add_component("experiment", registry_category::kExperiment, "tensile",
+                  "the registered experiment with its options: geometry, resolution (twill list experiment)");
+  s.add_component("discretization", registry_category::kDiscretization, "catmull-clark-kl",
+                  "the shell model with its options (twill list discretization)");
+  s.add_double("angle_deg", 90, "strip axis vs weft [deg]: 0 weft, 90 warp, 45 bias (model.md §7)")
+      .range(limits::kAngle.lo, limits::kAngle.hi);
+  s.add_double_list("schedule", {}, "clamp extensions (tensile) or overhangs (bend) [mm], in order; "
+                                    "empty: the reference's extensions")
+      .at_least(0);
+  s.add_string("reference", "", "a tensile run CSV to compare with (its extensions are the default schedule)");
+  s.add_double("rate_mm_min", 0, "crosshead speed [mm/min], the clock of rate effects (0: not known)")
+      .range(0, limits::kCrossheadRate.hi);
+  return s;
+}
+
+ReferenceCurve read_reference_curve(const std::string& path) {
+  const TensileRun run = read_tensile_run_csv(path);
+  return {run.extension_mm, run.force_N};
+}
+
+std::vector<double> simulate_schedule(const Options& config, const ConfigKeyLocator& locate) {
+  const std::vector<double> schedule = config.get_double_list("schedule");
+  const std::string reference = config.get_string("reference");
+  if (reference.empty()) {
+    if (schedule.empty()) throw InputError(locate("schedule"), "no schedule and no reference to take one from");
+    return schedule;
+  }
+  const ReferenceCurve curve = read_reference_curve(reference);
+  if (schedule.empty()) return curve.schedule;
+  if (schedule != curve.schedule)
+    throw InputError(locate("schedule"), "differs from the reference's extensions (" + reference +
+                                             "): give one or the other");
+  return schedule;
+}
+
+void check_simulate_config(const Options& config, const std::string& params_path, const Registry& registry,
+                           const ConfigKeyLocator& locate) {
+  read_params_file(params_path, &registry);
+  const std::string reference = config.get_string("reference");
+  if (!reference.empty()) {
+    check_readable_file(reference, locate("reference"));
+    read_reference_curve(reference);
+  }
+  simulate_schedule(config, locate);
+}
+
+nlohmann::json reference_errors(const std::vector<double>& simulated, const ReferenceCurve& reference) {
+  double sum_difference = 0, sum_reference = 0, worst = 0;
+  for (size_t i = 0; i < simulated.size() && i < reference.values.size(); ++i) {
+    const double difference = std::abs(simulated[i] - reference.values[i]);
+    sum_difference += difference;
+    sum_reference += std::abs(reference.values[i]);
+    if (std::abs(reference.values[i]) > kReferenceFloorN) worst = std::max(worst, difference / std::abs(reference.values[i]));
+  }
+  return {{"avg_rel_error", sum_reference > 0 ? sum_difference / sum_reference : 0.0},
+          {"worst_rel_error", worst},
+          {"points", std::min(simulated.size(), reference.values.size())}};
+}
+
+}  // namespace twill
