@@ -20,6 +20,10 @@ from plot_common import pyplot_or_exit
 # Spans (max/min) above which an axis is drawn on a log scale.
 X_LOG_SPAN = 10.0
 Y_LOG_SPAN = 100.0
+# Above this many lines the legend goes beside the axes (inside it hides the lines) and the
+# lines cycle through markers as well as colours (matplotlib's default cycle has 10 colours).
+LEGEND_INSIDE_MAX = 6
+MARKERS = "os^vDP*Xh<>"
 
 
 def log_scale(values, span):
@@ -28,7 +32,8 @@ def log_scale(values, span):
 
 
 def plot_table(plt, table, path):
-    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    many = len(table["series"]) > LEGEND_INSIDE_MAX
+    fig, ax = plt.subplots(figsize=(9.6 if many else 6.4, 4.2))
     if table["numeric_x"]:
         x = [float(v) for v in table["x"]]
         if log_scale(x, X_LOG_SPAN):
@@ -38,12 +43,13 @@ def plot_table(plt, table, path):
         ax.set_xticks(x)
         ax.set_xticklabels(table["x"], rotation=30 if len(table["x"]) > 4 else 0, ha="right" if len(table["x"]) > 4 else "center")
     every_y = []
-    for series in table["series"]:
+    for i, series in enumerate(table["series"]):
         points = [(xi, yi) for xi, yi in zip(x, series["y"]) if yi is not None]
         if not points:
             continue
         every_y += [p[1] for p in points]
-        ax.plot([p[0] for p in points], [p[1] for p in points], marker="o", label=series["label"])
+        ax.plot([p[0] for p in points], [p[1] for p in points], marker=MARKERS[(i // 10) % len(MARKERS)],
+                label=series["label"])
     if log_scale(every_y, Y_LOG_SPAN):
         ax.set_yscale("log")
     ax.set_xlabel(table["x_key"])
@@ -51,7 +57,10 @@ def plot_table(plt, table, path):
     ax.set_title(f"{table['metric']} against {table['x_key']}", fontsize=10)
     ax.grid(True, alpha=0.3)
     if len(table["series"]) > 1 or table["series"][0]["label"] != "all":
-        ax.legend(fontsize=7)
+        if many:
+            ax.legend(fontsize=6, loc="center left", bbox_to_anchor=(1.01, 0.5))
+        else:
+            ax.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
