@@ -51,12 +51,27 @@ std::vector<double> simulate_schedule(const Options& config, const ConfigKeyLoca
 void check_simulate_config(const Options& config, const std::string& params_path, const Registry& registry,
                            const ConfigKeyLocator& locate) {
   read_params_file(params_path, &registry);
+  // Experiments scheduled by clamp extensions have a gauge length (tensile, validation,
+  // tensile-lateral); the others (bend) by overhangs, which a tensile reference cannot give.
+  const Options& experiment = config.get_component("experiment").options;
+  const double gauge_mm = experiment.has("gauge_length_mm") ? experiment.get_double("gauge_length_mm") : 0.0;
   const std::string reference = config.get_string("reference");
   if (!reference.empty()) {
+    if (!(gauge_mm > 0))
+      throw InputError(locate("reference"), "a tensile reference needs an experiment scheduled by extensions, not '" +
+                                                config.get_component("experiment").name + "'");
     check_readable_file(reference, locate("reference"));
     read_reference_curve(reference);
   }
-  simulate_schedule(config, locate);
+  if (gauge_mm > 0)  // the same bound as `twill simulate --extensions-mm`
+    for (const double e : simulate_schedule(config, locate)) {
+      const std::string violation = range_violation(e / gauge_mm, limits::kEngineeringStrain);
+      if (!violation.empty())
+        throw InputError(locate("schedule"), "extension " + format_double(e) + " mm on a " + format_double(gauge_mm) +
+                                                 " mm gauge: " + violation);
+    }
+  else
+    simulate_schedule(config, locate);
 }
 
 nlohmann::json reference_errors(const std::vector<double>& simulated, const ReferenceCurve& reference) {

@@ -215,6 +215,11 @@ TEST_F(StudyTest, SimulateStudyRecordsReferenceErrorsPerRun) {
             std::string::npos);
   EXPECT_NE(error_of(write("study.yaml", head + "set: {reference: no/such.csv}\n")).find("study.yaml:3"),
             std::string::npos);
+  // A tensile reference for the cantilever, whose schedule is overhangs.
+  EXPECT_NE(error_of(write("study.yaml", head + "set:\n  reference: " + reference +
+                                             "/tensile-bias.csv\n  experiment.name: bend\n"))
+                .find("scheduled by extensions"),
+            std::string::npos);
 }
 
 TEST_F(StudyTest, SweepRecordsEveryRunAndSkipsWhatIsDone) {
