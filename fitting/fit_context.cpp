@@ -124,6 +124,16 @@ const MembraneTerm& membrane_term(const std::string& curve) {
   throw std::logic_error("no membrane term '" + curve + "'");
 }
 
+StrainExcess strain_excess(const std::vector<Eigen::Vector3d>& samples, int component,
+                           const std::optional<double>& cutoff) {
+  StrainExcess e;
+  for (const Eigen::Vector3d& s : samples) {
+    e.largest = std::max(e.largest, s[component]);
+    if (cutoff && s[component] > *cutoff) e.share_beyond += 1.0 / static_cast<double>(samples.size());
+  }
+  return e;
+}
+
 FitContext::FitContext(const Dataset& dataset, const FitConfig& config, const Registry& registry,
                        FitProgress progress)
     : dataset_(dataset), config_(config), registry_(registry), progress_(std::move(progress)) {

@@ -77,6 +77,15 @@ struct MembraneTerm {
 const std::vector<MembraneTerm>& membrane_terms();
 const MembraneTerm& membrane_term(const std::string& curve);
 
+/// A strip's strain field against a cutoff (docs/fitting.md §7): over strain samples on an
+/// even grid (TensileExperiment::material_strain_samples), the largest |component| and the
+/// share of samples above `cutoff` (a share of the strip's area; 0 without a cutoff).
+struct StrainExcess {
+  double largest = 0, share_beyond = 0;
+};
+StrainExcess strain_excess(const std::vector<Eigen::Vector3d>& samples, int component,
+                           const std::optional<double>& cutoff);
+
 /// A tensile-curve stage as the other stages see it.
 struct CurveStage {
   std::string label;  ///< "warp"

@@ -57,8 +57,10 @@ class StrainCutoff final : public FitStage {
       return;
     }
     const MembraneTerm& term = *stage->term;
-    context.params.cutoffs.*(term.cutoff) = options_.fraction * largest_simulated_strain(context, *stage);
+    const std::vector<Eigen::Vector3d> samples = simulated_strains(context, *stage);
+    context.params.cutoffs.*(term.cutoff) = options_.fraction * strain_excess(samples, term.strain_component, {}).largest;
     context.note(fmt::format("cutoff: {}_max {:.4g}", term.cutoff_name, *(context.params.cutoffs.*(term.cutoff))));
+    note_other_cutoffs_passed(context, *stage, samples);
   }
 
  private:
@@ -82,11 +84,27 @@ class StrainCutoff final : public FitStage {
     return schedule;
   }
 
-  // The largest strain component over the stage's runs at the finest level (the model's
-  // law with the effects' law hooks applied, as every experiment of the fit sees it).
-  static double largest_simulated_strain(const FitContext& context, const CurveStage& stage) {
+  // Where this stage's strips pass a cutoff set before (the bias strips and the warp/weft
+  // cutoffs): there the stage was fitted to the law's quadratic extension (docs/fitting.md §7).
+  static void note_other_cutoffs_passed(FitContext& context, const CurveStage& stage,
+                                        const std::vector<Eigen::Vector3d>& samples) {
+    for (const MembraneTerm& other : membrane_terms()) {
+      if (&other == stage.term) continue;
+      const std::optional<double> cutoff = context.params.cutoffs.*(other.cutoff);
+      const StrainExcess e = strain_excess(samples, other.strain_component, cutoff);
+      if (e.share_beyond > 0)
+        context.note(fmt::format("cutoff of {}: its strips pass {}_max {:.4g} over {:.1f} % of their area, up to "
+                                 "{:.4g}: the {} fit saw the law's extrapolation there",
+                                 stage.label, other.cutoff_name, *cutoff, 100 * e.share_beyond, e.largest, stage.label));
+    }
+  }
+
+  // The strain field over each of the stage's runs at its largest extension, at the finest
+  // level (the model's law with the effects' law hooks applied, as every experiment of the fit
+  // sees it), pooled: each run's grid covers its strip evenly.
+  static std::vector<Eigen::Vector3d> simulated_strains(const FitContext& context, const CurveStage& stage) {
     const MaterialParameters material = law_adjusted(context.params, context.registry());
-    double largest = 0;
+    std::vector<Eigen::Vector3d> samples;
     for (const RunData* d : context.runs_for(stage.angle_deg)) {
       TensileExperiment e(context.setup_for(*d->test, context.levels() - 1), context.discretization(), material,
                           context.solver());
@@ -94,11 +112,12 @@ class StrainCutoff final : public FitStage {
       const TensileCurve c = e.run(strain_sample_schedule(d->extension_mm),
                                    [&](int, const Eigen::VectorXd& q, const EquilibriumSolver&) { last = q; });
       if (!c.completed || last.size() == 0) continue;
-      largest = std::max(largest, e.largest_material_strain(last)[stage.term->strain_component]);
+      const std::vector<Eigen::Vector3d> run = e.material_strain_samples(last);
+      samples.insert(samples.end(), run.begin(), run.end());
     }
-    if (!(largest > 0))
+    if (!(strain_excess(samples, stage.term->strain_component, {}).largest > 0))
       throw std::runtime_error("cutoffs: no converged " + stage.label + " simulation to measure strains on");
-    return largest;
+    return samples;
   }
 
   StrainCutoffOptions options_;

@@ -75,10 +75,9 @@ class Validation final : public FitStage {
     for (const MembraneTerm& term : membrane_terms()) {
       const int k = term.strain_component;
       r.cutoff[k] = context.params.cutoffs.*(term.cutoff);
-      for (const Eigen::Vector3d& e : field->samples) {
-        r.largest[k] = std::max(r.largest[k], e[k]);
-        if (r.cutoff[k] && e[k] > *r.cutoff[k]) r.share_beyond[k] += 1.0 / static_cast<double>(field->samples.size());
-      }
+      const StrainExcess excess = strain_excess(field->samples, k, r.cutoff[k]);
+      r.largest[k] = excess.largest;
+      r.share_beyond[k] = excess.share_beyond;
       if (r.share_beyond[k] > 0)
         context.note(fmt::format("validation {}: at {:g} mm the strip's {} passes the cutoff {}_max {:.4g} over "
                                  "{:.1f} % of its area, up to {:.4g} ({:+.0f} %): there the model extrapolates "

@@ -371,6 +371,23 @@ TEST(FitProtocolAsData, ValidationStatesWhereItsStripsLeaveTheStrainBox) {
   EXPECT_GE(notes_beyond(tight, "E12_max"), 1);
   EXPECT_GE(notes_beyond(tight, "E11_max"), 1);
   EXPECT_EQ(*tight.validation_strain[0].cutoff[2], 0.99 * e12);
+
+  // The strain-cutoff stage says the same of its own strips against the cutoffs set before it:
+  // a bias stage after a (here absurdly small) warp cutoff was fitted to the extrapolated law.
+  truth.cutoffs.E11_max = 1e-4;
+  const std::filesystem::path params = std::filesystem::temp_directory_path() / "twill-strain-box-bias.yaml";
+  write_params_file(truth, params.string());
+  const FitReport bias = run_fit(
+      dataset,
+      coarse_config({"resolution.coarse_cells_across=2", "data.max_points=6",
+                     "protocol=[{name: start-from, params: " + params.string() +
+                         "}, {name: tensile-curve, label: bias, angle_deg: 45, term: eta4, max_degree: 1, "
+                         "uniform_starts: false}, {name: strain-cutoff, stage: bias}]"}),
+      registry(), {});
+  std::filesystem::remove(params);
+  EXPECT_EQ(std::count_if(bias.notes.begin(), bias.notes.end(),
+                          [](const std::string& n) { return n.find("cutoff of bias: its strips pass E11_max") == 0; }),
+            1);
   // 1 % below the largest shear only a corner of the strip passes; half the largest warp strain
   // of the first strip, a larger part of it.
   double shear_share = 0;
