@@ -35,6 +35,7 @@
 #include "effects/effect_experiment.hpp"
 #include "experiments/experiment.hpp"
 #include "experiments/predictors.hpp"
+#include "experiments/reference_errors.hpp"
 #include "experiments/simulate_config.hpp"
 
 namespace twill {
@@ -227,8 +228,10 @@ nlohmann::json run_as_json(const Experiment& experiment, const ExperimentRun& ru
     j["points"].push_back(point);
   }
   if (spec.reference) {
-    std::vector<double> simulated(run.values.data(), run.values.data() + run.values.size());
-    j["reference"] = reference_errors(simulated, *spec.reference);
+    const std::vector<double> simulated(run.values.data(), run.values.data() + run.values.size());
+    const ReferenceErrors e = reference_errors(simulated, spec.reference->values);
+    // worst: signed, + where the simulation is stiffer (experiments/reference_errors.hpp)
+    j["reference"] = {{"avg_rel_error", e.average}, {"worst_rel_error", e.worst}, {"points", e.points}};
   }
   return j;
 }

@@ -1,9 +1,6 @@
 // The config of `twill simulate -c` and of a study's simulate runs (experiments/simulate_config.hpp).
 #include "experiments/simulate_config.hpp"
 
-#include <algorithm>
-#include <cmath>
-
 #include "core/dataset.hpp"
 #include "core/input_limits.hpp"
 #include "core/params_io.hpp"
@@ -60,8 +57,7 @@ void check_simulate_config(const Options& config, const std::string& params_path
     if (!(gauge_mm > 0))
       throw InputError(locate("reference"), "a tensile reference needs an experiment scheduled by extensions, not '" +
                                                 config.get_component("experiment").name + "'");
-    check_readable_file(reference, locate("reference"));
-    read_reference_curve(reference);
+    check_readable_file(reference, locate("reference"));  // read by simulate_schedule below
   }
   if (gauge_mm > 0)  // the same bound as `twill simulate --extensions-mm`
     for (const double e : simulate_schedule(config, locate)) {
@@ -72,19 +68,6 @@ void check_simulate_config(const Options& config, const std::string& params_path
     }
   else
     simulate_schedule(config, locate);
-}
-
-nlohmann::json reference_errors(const std::vector<double>& simulated, const ReferenceCurve& reference) {
-  double sum_difference = 0, sum_reference = 0, worst = 0;
-  for (size_t i = 0; i < simulated.size() && i < reference.values.size(); ++i) {
-    const double difference = std::abs(simulated[i] - reference.values[i]);
-    sum_difference += difference;
-    sum_reference += std::abs(reference.values[i]);
-    if (std::abs(reference.values[i]) > kReferenceFloorN) worst = std::max(worst, difference / std::abs(reference.values[i]));
-  }
-  return {{"avg_rel_error", sum_reference > 0 ? sum_difference / sum_reference : 0.0},
-          {"worst_rel_error", worst},
-          {"points", std::min(simulated.size(), reference.values.size())}};
 }
 
 }  // namespace twill

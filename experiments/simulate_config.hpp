@@ -11,10 +11,8 @@
 //   rate_mm_min: 0                 # crosshead speed, the clock of rate effects (0: not known)
 //
 // A reference is a tensile run CSV (docs/dataset-format.md): without a schedule its
-// extensions are the schedule, and the run's result holds its error against the forces
-// (avg_rel_error: Σ|F − F_ref| / Σ|F_ref|, model.md §8; worst_rel_error: the largest
-// |F − F_ref| / |F_ref| over points with |F_ref| above kReferenceFloorN, the README's measure).
-#include <nlohmann/json.hpp>
+// extensions are the schedule, and the run's result holds its errors against the forces
+// (experiments/reference_errors.hpp).
 #include <string>
 #include <vector>
 
@@ -23,10 +21,6 @@
 #include "core/registry.hpp"
 
 namespace twill {
-
-/// Points whose reference force is at most this are left out of the worst relative error:
-/// near zero force a relative error says nothing (the reference comparisons' rule, README).
-inline constexpr double kReferenceFloorN = 1.0;
 
 OptionSchema simulate_config_schema();
 
@@ -44,8 +38,5 @@ std::vector<double> simulate_schedule(const Options& config, const ConfigKeyLoca
 /// reads, a schedule exists. InputError located by `locate` (or the params file itself).
 void check_simulate_config(const Options& config, const std::string& params_path, const Registry& registry,
                            const ConfigKeyLocator& locate);
-
-/// Errors of `simulated` against `reference` at the same schedule (see the header comment).
-nlohmann::json reference_errors(const std::vector<double>& simulated, const ReferenceCurve& reference);
 
 }  // namespace twill

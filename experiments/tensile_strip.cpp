@@ -161,12 +161,6 @@ std::vector<Eigen::Vector3d> TensileExperiment::material_strain_samples(const Ei
   return samples;
 }
 
-Eigen::Vector3d TensileExperiment::largest_material_strain(const Eigen::VectorXd& q, int samples_across) const {
-  Eigen::Vector3d largest = Eigen::Vector3d::Zero();
-  for (const Eigen::Vector3d& e : material_strain_samples(q, samples_across)) largest = largest.cwiseMax(e);
-  return largest;
-}
-
 void TensileExperiment::set_sensitivity_parameters(const std::vector<int>& flat_indices) {
   const int flat = discretization_->parameters().flat_size();
   for (int p : flat_indices)

@@ -136,14 +136,12 @@ class TensileExperiment {
   /// Observables of a configuration: force [N] from a gradient (#dofs), lateral strain from q.
   double force_from_gradient(const Eigen::VectorXd& gradient) const;
   double lateral_strain(const Eigen::VectorXd& q) const;
-  /// Largest |Ẽ11|, |Ẽ22|, |Ẽ12| (orthotropic Green strain, material frame, model.md §1) of
-  /// the mid-surface at q, sampled on a grid of `samples_across` × proportional points over
-  /// the strip (interior points: the deformation gradient comes from central differences of
-  /// point_evaluation() positions at ±h, h = 1e-3 of a cell). Used for the strain cutoffs of
-  /// paper §5.2 steps 4 and 6 ("the largest strain seen").
-  Eigen::Vector3d largest_material_strain(const Eigen::VectorXd& q, int samples_across = 24) const;
-  /// The samples behind largest_material_strain: |Ẽ11|, |Ẽ22|, |Ẽ12| at each point of the
-  /// grid, which covers the strip evenly (so a share of samples is a share of its area).
+  /// |Ẽ11|, |Ẽ22|, |Ẽ12| (orthotropic Green strain, material frame, model.md §1) of the
+  /// mid-surface at q on a grid of `samples_across` × proportional points, which covers the
+  /// strip evenly (a share of samples is a share of its area; interior points: the deformation
+  /// gradient comes from central differences of point_evaluation() positions at ±h, h = 1e-3
+  /// of a cell). The strain cutoffs of paper §5.2 steps 4 and 6 ("the largest strain seen")
+  /// and where a strip leaves them (fitting/fit_context.hpp strain_excess).
   std::vector<Eigen::Vector3d> material_strain_samples(const Eigen::VectorXd& q, int samples_across = 24) const;
   /// ∂(lateral strain)/∂q at q (#dofs).
   Eigen::VectorXd lateral_strain_gradient(const Eigen::VectorXd& q) const;

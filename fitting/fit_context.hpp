@@ -64,7 +64,7 @@ struct MembraneTerm {
   Curve MaterialParameters::*curve_member;
   std::optional<double> Cutoffs::*cutoff;
   std::string cutoff_name;  ///< "E11", for notes
-  int strain_component;     ///< 0, 1, 2: Ẽ11, Ẽ22, Ẽ12 (TensileExperiment::largest_material_strain)
+  int strain_component;     ///< 0, 1, 2: Ẽ11, Ẽ22, Ẽ12 (TensileExperiment::material_strain_samples)
   double stress_factor;
   /// The initial guess (§5.3): stiffness = slope_factor · small-strain modulus / τ (a stretch:
   /// 1; the shear: ¼, a stiff-yarn bias strip deforming by shear alone has modulus ≈ 4 G12).

@@ -162,8 +162,6 @@ json report_json(const FitReport& r, const Options& config) {
   return j;
 }
 
-// The effect-fit stages' results: per effect the error on its runs without and with it, and
-// its fitted parameters.
 // "0.212 (cutoff 0.109: beyond over 31 % of the strip)": a cell per strain component.
 std::string strain_range_cell(const FitStrainRange& r, int k) {
   if (!r.cutoff[k]) return fmt::format("{:.3g} (no cutoff)", r.largest[k]);
@@ -184,6 +182,8 @@ std::string strain_range_markdown(const std::vector<FitStrainRange>& ranges) {
   return md.str();
 }
 
+// The effect-fit stages' results: per effect the error on its runs without and with it, and
+// its fitted parameters.
 std::string effects_markdown(const std::vector<FitEffect>& effects) {
   std::ostringstream md;
   md << "\n## Effects (docs/effects.md)\n\nPer effect-fit stage: the mean average relative error of its "

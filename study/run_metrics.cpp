@@ -3,6 +3,7 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
 #include <map>
 #include <nlohmann/json.hpp>
 
@@ -119,7 +120,9 @@ std::vector<std::pair<std::string, double>> simulate_metrics(const nlohmann::jso
   Metrics out;
   if (result.contains("reference")) {
     out.emplace_back("error.reference", result.at("reference").at("avg_rel_error").get<double>());
-    out.emplace_back("error.reference.worst", result.at("reference").at("worst_rel_error").get<double>());
+    const double worst = result.at("reference").at("worst_rel_error").get<double>();  // signed
+    out.emplace_back("error.reference.worst", std::abs(worst));
+    out.emplace_back("error.reference.worst_signed", worst);
   }
   const json& points = result.at("points");
   if (!points.empty())

@@ -38,7 +38,8 @@ std::vector<std::pair<std::string, double>> fit_metrics(const nlohmann::json& re
 
 /// What a study records of a `twill simulate --json` run (study/study_command.hpp):
 ///   error.reference, error.reference.worst   avg and worst relative error against the
-///                                            config's reference (experiments/simulate_config.hpp)
+///   error.reference.worst_signed             config's reference (experiments/reference_errors.hpp;
+///                                            signed: + where the simulation is stiffer)
 ///   value.last                               the observable at the last schedule entry
 ///                                            (force [N], chord angle [deg])
 ///   count.points, count.newton_iterations    schedule entries that converged; Newton steps

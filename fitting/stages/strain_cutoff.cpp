@@ -2,7 +2,7 @@
 // cutoff (Ẽ11max for eta1, Ẽ22max for eta3, Ẽ12max for eta4) at `fraction` of "the largest
 // strain seen": the largest |Ẽ| component over the strip's mid-surface in the stage's simulated
 // tests at their largest measured extension, at the finest configured level
-// (TensileExperiment::largest_material_strain samples the strain field on a grid).
+// (TensileExperiment::material_strain_samples samples the strain field on a grid).
 #include <fmt/format.h>
 
 #include <algorithm>

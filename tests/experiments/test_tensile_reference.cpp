@@ -16,6 +16,7 @@
 #include "core/dataset.hpp"
 #include "core/params_io.hpp"
 #include "discretizations/catmull_clark_kl/catmull_clark_kl.hpp"
+#include "experiments/reference_errors.hpp"
 #include "experiments/tensile_strip.hpp"
 
 namespace twill {
@@ -62,12 +63,7 @@ const TensileCurve& simulate(const Case& c, int across, int along,
 double worst_relative_error(const Case& c, const TensileCurve& curve) {
   const TensileRun ref = read_tensile_run_csv(kReference + c.material + "/tensile-" + c.label + ".csv");
   EXPECT_EQ(curve.points.size(), ref.size());
-  double worst = 0;
-  for (size_t i = 0; i < std::min(curve.points.size(), ref.size()); ++i) {
-    if (ref.force_N[i] <= 1.0) continue;
-    worst = std::max(worst, std::abs(curve.points[i].force_N - ref.force_N[i]) / ref.force_N[i]);
-  }
-  return worst;
+  return std::abs(reference_errors(curve, ref.force_N).worst);
 }
 
 class TensileReference : public ::testing::TestWithParam<Case> {};

@@ -18,6 +18,7 @@
 #include "core/dataset.hpp"
 #include "core/params_io.hpp"
 #include "discretizations/triangle_shell/triangle_shell.hpp"
+#include "experiments/reference_errors.hpp"
 #include "experiments/tensile_strip.hpp"
 
 namespace twill {
@@ -60,12 +61,7 @@ double worst_error(const Strip& s, int across, int along) {
   const TensileCurve curve = experiment.run(ref.extension_mm);
   EXPECT_TRUE(curve.completed) << key << ": " << curve.message;
   EXPECT_EQ(curve.points.size(), ref.extension_mm.size());
-  double worst = 0;
-  for (size_t i = 0; i < std::min(curve.points.size(), ref.force_N.size()); ++i) {
-    if (ref.force_N[i] <= 1.0) continue;
-    const double e = curve.points[i].force_N / ref.force_N[i] - 1.0;
-    if (std::abs(e) > std::abs(worst)) worst = e;
-  }
+  const double worst = reference_errors(curve, ref.force_N).worst;
   std::printf("[measured] triangle %s: worst force error %+.3f %% over points > 1 N, %.2f s\n", key.c_str(),
               100 * worst, curve.wall_time_s);
   return cache[key] = worst;
