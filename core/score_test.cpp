@@ -2,9 +2,12 @@
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/QR>
+#include <algorithm>
 #include <cmath>
 #include <limits>
+#include <random>
 #include <stdexcept>
+#include <vector>
 
 namespace twill {
 
@@ -114,7 +117,98 @@ double f_upper_tail(double f, int d1, int d2) {
   return incomplete_beta(0.5 * d2, 0.5 * d1, d2 / (d2 + d1 * f));
 }
 
-ScoreTest score_test(FitObjective& objective, const Eigen::VectorXd& x, int n_baseline) {
+namespace {
+
+// The noise's lag-one correlation is clipped here: nearer 1 a run's residual is a trend, not
+// noise, and an AR(1) that close to a random walk would make the null as wide as any signal.
+constexpr double kMaxCorrelation = 0.95;
+
+// What T needs of the baseline and the candidate, computed once for the data and every
+// replicate of the calibration.
+struct ScoreBasis {
+  Eigen::MatrixXd q;           ///< orthonormal basis of the baseline's directions
+  Eigen::MatrixXd signature;   ///< S = P J_e
+  Eigen::MatrixXd directions;  ///< eigenvectors of SᵀS kept as directions (d columns)
+  Eigen::VectorXd lambda;      ///< their eigenvalues
+  Eigen::Index remaining = 0;  ///< m − n_b − d
+
+  Eigen::MatrixXd project(const Eigen::MatrixXd& v) const { return v - q * (q.transpose() * v); }
+};
+
+struct Statistic {
+  double t = 0, sigma2 = 0;
+  Eigen::VectorXd noise;  ///< u: the residual neither the baseline nor the candidate explains
+};
+
+Statistic statistic_of(const ScoreBasis& basis, const Eigen::VectorXd& r) {
+  const Eigen::VectorXd free_residual = basis.project(r);
+  const Eigen::VectorXd along = basis.directions.transpose() * (basis.signature.transpose() * free_residual);
+  const Eigen::VectorXd coefficients = along.cwiseQuotient(basis.lambda);
+  const double explained = along.dot(coefficients);
+  Statistic out;
+  out.noise = free_residual - basis.signature * (basis.directions * coefficients);
+  // The noise the baseline and the candidate both leave: under the alternative the baseline's
+  // residual holds the candidate's signal too, and a variance estimated from it caps T at m.
+  out.sigma2 = (free_residual.squaredNorm() - explained) / static_cast<double>(basis.remaining);
+  out.t = basis.directions.cols() > 0 && out.sigma2 > 0 ? explained / out.sigma2 : 0.0;
+  return out;
+}
+
+// One run's rows of the residual vector and the AR(1) noise fitted to them (score_test.hpp).
+struct RunNoise {
+  Eigen::Index begin = 0, size = 0;
+  double phi = 0, sd = 0;  ///< lag-one coefficient, stationary standard deviation
+};
+
+RunNoise fit_run_noise(const Eigen::VectorXd& u, Eigen::Index begin, Eigen::Index size) {
+  RunNoise run{begin, size, 0, 0};
+  const auto rows = u.segment(begin, size);
+  run.sd = std::sqrt(rows.squaredNorm() / static_cast<double>(size));
+  if (size < 3) return run;
+  const double lagged = rows.head(size - 1).squaredNorm();
+  const double raw = lagged > 0 ? rows.tail(size - 1).dot(rows.head(size - 1)) / lagged : 0.0;
+  run.phi = std::clamp(raw + (1 + 3 * raw) / static_cast<double>(size), 0.0, kMaxCorrelation);
+  return run;
+}
+
+Eigen::VectorXd draw_noise(const std::vector<RunNoise>& runs, Eigen::Index m, std::mt19937_64* engine) {
+  std::normal_distribution<double> normal;
+  Eigen::VectorXd e(m);
+  for (const RunNoise& run : runs) {
+    const double innovation = run.sd * std::sqrt(1 - run.phi * run.phi);
+    double previous = run.sd * normal(*engine);
+    e[run.begin] = previous;
+    for (Eigen::Index i = 1; i < run.size; ++i) e[run.begin + i] = previous = run.phi * previous + innovation * normal(*engine);
+  }
+  return e;
+}
+
+// The calibrated p-value of `observed` (score_test.hpp): AR(1) noise per predictor's rows,
+// B replicates of T*.
+void calibrate(const ScoreBasis& basis, const Statistic& observed, const std::vector<Eigen::VectorXd>& predictions,
+               const ScoreCalibration& calibration, ScoreTest* out) {
+  std::vector<RunNoise> runs;
+  Eigen::Index row = 0;
+  double correlation = 0;
+  for (const Eigen::VectorXd& p : predictions) {
+    runs.push_back(fit_run_noise(observed.noise, row, p.size()));
+    correlation += runs.back().phi / static_cast<double>(predictions.size());
+    row += p.size();
+  }
+  if (row != observed.noise.size()) throw std::logic_error("score_test: the predictions do not cover the residuals");
+  std::mt19937_64 engine(calibration.seed);
+  int as_large = 0;
+  for (int b = 0; b < calibration.replicates; ++b)
+    as_large += statistic_of(basis, draw_noise(runs, row, &engine)).t >= observed.t;
+  out->replicates = calibration.replicates;
+  out->noise_correlation = correlation;
+  out->p_value = (1.0 + as_large) / (1.0 + calibration.replicates);
+}
+
+}  // namespace
+
+ScoreTest score_test(FitObjective& objective, const Eigen::VectorXd& x, int n_baseline,
+                     const ScoreCalibration& calibration) {
   const int n = objective.dimension();
   if (n_baseline < 0 || n_baseline >= n)
     throw std::invalid_argument("score_test: " + std::to_string(n_baseline) + " baseline unknowns of " +
@@ -127,37 +221,34 @@ ScoreTest score_test(FitObjective& objective, const Eigen::VectorXd& x, int n_ba
   const Eigen::MatrixXd scales = objective.scale_columns();
   Eigen::MatrixXd baseline(r.size(), n_baseline + scales.cols());
   baseline << jacobian.leftCols(n_baseline), scales;
-  const Eigen::MatrixXd q = orthonormal_basis(baseline);
-  const auto project = [&q](const Eigen::MatrixXd& v) -> Eigen::MatrixXd { return v - q * (q.transpose() * v); };
+  ScoreBasis basis;
+  basis.q = orthonormal_basis(baseline);
 
   ScoreTest out;
   const Eigen::MatrixXd candidate = jacobian.rightCols(n - n_baseline);
-  out.signature = project(candidate);
-  const Eigen::VectorXd free_residual = project(r);
-  const Eigen::VectorXd g = out.signature.transpose() * free_residual;
-  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> information(out.signature.transpose() * out.signature);
-  const Eigen::VectorXd lambda = information.eigenvalues();
+  basis.signature = out.signature = basis.project(candidate);
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> information(basis.signature.transpose() * basis.signature);
   // Relative to the candidate's own columns before the projection (eigenvalues are squared
   // singular values): a direction the baseline absorbs leaves round-off, not a direction.
   const double reference = (candidate.transpose() * candidate).trace();
-  double explained = 0;
-  for (Eigen::Index k = 0; k < lambda.size(); ++k) {
-    if (!(lambda[k] > kRankTolerance * kRankTolerance * reference)) continue;
-    const double along = information.eigenvectors().col(k).dot(g);
-    explained += along * along / lambda[k];
-    ++out.dof;
-  }
-  // The noise the baseline and the candidate both leave: under the alternative the baseline's
-  // residual holds the candidate's signal too, and a variance estimated from it caps T at m.
-  const Eigen::Index remaining = r.size() - q.cols() - out.dof;
-  out.sigma2 = remaining > 0 ? (free_residual.squaredNorm() - explained) / static_cast<double>(remaining)
-                             : std::numeric_limits<double>::quiet_NaN();
-  if (out.dof > 0 && remaining <= 0) {  // nothing left to judge the noise by
-    out.statistic = out.p_value_iid = std::numeric_limits<double>::quiet_NaN();
+  std::vector<Eigen::Index> kept;
+  for (Eigen::Index k = 0; k < information.eigenvalues().size(); ++k)
+    if (information.eigenvalues()[k] > kRankTolerance * kRankTolerance * reference) kept.push_back(k);
+  out.dof = static_cast<int>(kept.size());
+  basis.directions = information.eigenvectors()(Eigen::all, kept);
+  basis.lambda = information.eigenvalues()(kept);
+  basis.remaining = r.size() - basis.q.cols() - out.dof;
+  if (basis.remaining <= 0) {  // nothing left to judge the noise by
+    out.sigma2 = std::numeric_limits<double>::quiet_NaN();
+    if (out.dof > 0) out.statistic = out.p_value_iid = out.p_value = std::numeric_limits<double>::quiet_NaN();
     return out;
   }
-  out.statistic = out.dof > 0 && out.sigma2 > 0 ? explained / out.sigma2 : 0.0;
-  out.p_value_iid = out.dof > 0 ? f_upper_tail(out.statistic / out.dof, out.dof, static_cast<int>(remaining)) : 1.0;
+  const Statistic observed = statistic_of(basis, r);
+  out.sigma2 = observed.sigma2;
+  out.statistic = observed.t;
+  if (out.dof == 0) return out;
+  out.p_value_iid = f_upper_tail(out.statistic / out.dof, out.dof, static_cast<int>(basis.remaining));
+  if (calibration.replicates > 0) calibrate(basis, observed, objective.last_predictions(), calibration, &out);
   return out;
 }
 

@@ -24,9 +24,22 @@
 //
 // Calibration: with specimen scatter and correlated residuals along a curve the χ² tail is not
 // the null distribution (issue #16: an iid criterion "finds" effects in null data about half
-// the time with 15 % scatter); p_value_iid is reported as what it is, and the calibrated test
-// compares T with its distribution over data simulated from the baseline.
+// the time with 15 % scatter); p_value_iid is reported as what it is, and `p_value` compares T
+// with its distribution over noise simulated like the data's (docs/discover-design.md §3a): a
+// linearised parametric bootstrap. The specimen scales are baseline directions, so their
+// scatter needs no draws (P removes it exactly to first order); what remains is the noise
+// along each run, which a curve's measurements carry correlated (a strip's slip, the load
+// cell's drift). Per run (each predictor's rows), an AR(1) process is fitted to the residual
+// neither the baseline nor the candidate explains, u = P r − S (SᵀS)⁺ Sᵀ P r with S = P J_e:
+// lag-one coefficient φ̂ = Σ u_i u_{i−1} / Σ u_{i−1}², corrected for its small-sample bias
+// (Kendall: E φ̂ ≈ φ − (1 + 3φ)/n), clipped to [0, kMaxCorrelation]; innovation variance
+// (1 − φ²) Σu²/n. Each replicate draws e* from those processes and computes T* exactly as T
+// (P e*, its own σ*²); p = (1 + #{T* ≥ T}) / (B + 1). T is scale-free, so only each run's
+// correlation and the runs' relative noise levels matter. Under the alternative, u is the
+// noise as long as the candidate explains the signal; a misfit neither explains stays in u as
+// correlation and makes the test conservative, not liberal.
 #include <Eigen/Core>
+#include <cstdint>
 
 #include "core/fit_objective.hpp"
 
@@ -40,13 +53,25 @@ struct ScoreTest {
   int dof = 0;             ///< d: the rank of the candidate's net information
   double sigma2 = 0;       ///< σ², per residual
   double p_value_iid = 1;  ///< the F(d, m − n_b − d) upper tail of T/d (uncalibrated; see above)
+  double p_value = 1;      ///< calibrated: the share of correlated-noise replicates with T* ≥ T (above)
+  int replicates = 0;      ///< B, the bootstrap replicates behind p_value (0: not calibrated)
+  double noise_correlation = 0;  ///< the runs' mean fitted lag-one correlation φ of the noise
   Eigen::MatrixXd signature;  ///< P J_e: m × (candidate's unknowns), residual units
+};
+
+/// The calibration's draws (above). B = 1999 puts the p-value's resolution at 5e-4 and its
+/// Monte Carlo sd at 0.005 near 0.05; a replicate costs two products with the m × (n_b + d)
+/// bases, no solve. The seed is fixed so that a report can be regenerated to the digit.
+struct ScoreCalibration {
+  int replicates = 1999;
+  std::uint64_t seed = 20170728;  ///< SCA 2017's first day; any fixed value
 };
 
 /// The score test of the unknowns n_baseline… of `objective` (the candidate's) at x, where the
 /// first n_baseline unknowns are the baseline's, fitted there. Evaluates the objective's
 /// residuals and Jacobian once; throws std::runtime_error when the evaluation fails.
-ScoreTest score_test(FitObjective& objective, const Eigen::VectorXd& x, int n_baseline);
+ScoreTest score_test(FitObjective& objective, const Eigen::VectorXd& x, int n_baseline,
+                     const ScoreCalibration& calibration = {});
 
 /// The upper tail P(χ²(dof) > t) (regularised upper incomplete gamma Q(dof/2, t/2)).
 double chi_squared_upper_tail(double t, int dof);

@@ -133,12 +133,15 @@ struct FitEffect {
   int runs = 0;            ///< runs fitted
   int points = 0;          ///< observables fitted
   double error_without = 0, error_with = 0;  ///< mean of the runs' average relative errors
-  /// The score test at the effect's neutral values before it is fitted (core/score_test.hpp;
-  /// the p-value assumes iid residuals, uncalibrated with specimen scatter); NaN when not
-  /// evaluated (an angle-offset effect, or the baseline failed).
+  /// The score test at the effect's neutral values before it is fitted (core/score_test.hpp):
+  /// T, its degrees of freedom, the p-value if the residuals were iid, and the p-value
+  /// calibrated by correlated-noise replicates (score_noise_correlation: the runs' mean fitted
+  /// lag-one correlation); NaN when not evaluated (an angle-offset effect, or the baseline failed).
   double score = std::numeric_limits<double>::quiet_NaN();
   int score_dof = 0;
   double score_p_value_iid = 1;
+  double score_p_value = 1;
+  double score_noise_correlation = 0;
   std::vector<FitEffectParameter> parameters;
 };
 

@@ -153,6 +153,8 @@ json report_json(const FitReport& r, const Options& config) {
                             // null where not evaluated (json has no NaN)
                             {"score", std::isfinite(e.score) ? json(e.score) : json(nullptr)},
                             {"score_dof", e.score_dof}, {"score_p_value_iid", e.score_p_value_iid},
+                            {"score_p_value", e.score_p_value},
+                            {"score_noise_correlation", e.score_noise_correlation},
                             {"parameters", parameters}});
   }
   json timing = json::object();
@@ -188,16 +190,20 @@ std::string effects_markdown(const std::vector<FitEffect>& effects) {
   std::ostringstream md;
   md << "\n## Effects (docs/effects.md)\n\nPer effect-fit stage: the mean average relative error of its "
         "runs with the effect at its neutral values (the paper's model) and fitted; the score test at the neutral "
-        "values before the fit (T, its degrees of freedom d, and the p-value if the residuals were iid — with "
-        "specimen scatter and correlated points along a curve it is not calibrated; core/score_test.hpp; — where it "
-        "was not evaluated: an angle-offset effect, or no residual left to judge the noise by).\n\n"
-        "| effect | resolution | runs | points | error without | error with | score T (d) | p (iid) |\n"
-        "|---|---|---|---|---|---|---|---|\n";
+        "values before the fit (T, its degrees of freedom d, the p-value if the residuals were iid, and the p-value "
+        "calibrated against noise correlated along each run as the residuals are, with φ the runs' mean fitted lag-one "
+        "correlation; core/score_test.hpp; — where it was not evaluated: an angle-offset effect, or no residual left "
+        "to judge the noise by).\n\n"
+        "| effect | resolution | runs | points | error without | error with | score T (d) | p (iid) | p (calibrated, φ) |\n"
+        "|---|---|---|---|---|---|---|---|---|\n";
   for (const FitEffect& e : effects)
-    md << fmt::format("| {} | {} | {} | {} | {:.2f} % | {:.2f} % | {} | {} |\n", e.effect, e.resolution, e.runs,
+    md << fmt::format("| {} | {} | {} | {} | {:.2f} % | {:.2f} % | {} | {} | {} |\n", e.effect, e.resolution, e.runs,
                       e.points, 100 * e.error_without, 100 * e.error_with,
                       std::isfinite(e.score) ? fmt::format("{:.4g} ({})", e.score, e.score_dof) : "—",
-                      std::isfinite(e.score) ? fmt::format("{:.2g}", e.score_p_value_iid) : "—");
+                      std::isfinite(e.score) ? fmt::format("{:.2g}", e.score_p_value_iid) : "—",
+                      std::isfinite(e.score)
+                          ? fmt::format("{:.2g} ({:.2f})", e.score_p_value, e.score_noise_correlation)
+                          : "—");
   md << "\n| parameter | value | unit | bounds |\n|---|---|---|---|\n";
   for (const FitEffect& e : effects)
     for (const FitEffectParameter& p : e.parameters)

@@ -82,6 +82,13 @@ void effect_metrics(const json& effects, Metrics* out) {
     const std::string name = "effect." + e.at("effect").get<std::string>();
     out->emplace_back(name + ".error_without", e.at("error_without").get<double>());
     out->emplace_back(name + ".error_with", e.at("error_with").get<double>());
+    // The score test where it was evaluated (null otherwise); reports before the calibration
+    // lack its p-value.
+    if (!e.at("score").is_null()) {
+      out->emplace_back(name + ".score", e.at("score").get<double>());
+      out->emplace_back(name + ".score_p_value_iid", e.at("score_p_value_iid").get<double>());
+      if (e.contains("score_p_value")) out->emplace_back(name + ".score_p_value", e.at("score_p_value").get<double>());
+    }
     for (const json& p : e.at("parameters"))
       out->emplace_back("param." + p.at("name").get<std::string>(), p.at("value").get<double>());
   }

@@ -383,6 +383,8 @@ class EffectFit final : public FitStage {
       result->score = t.statistic;
       result->score_dof = t.dof;
       result->score_p_value_iid = t.p_value_iid;
+      result->score_p_value = t.p_value;
+      result->score_noise_correlation = t.noise_correlation;
     } catch (const std::runtime_error& e) {
       result->score = std::numeric_limits<double>::quiet_NaN();  // reported as not evaluated, and why
       context.note("effect " + options_.effect + ": score test not evaluated: " + e.what());

@@ -152,10 +152,11 @@ Options config_with(const std::string& effect, const std::string& stage_options 
 // The score test at the neutral values (core/score_test.hpp) on data made with the effect on:
 // the effect's signature is in the residuals, far beyond what the leftover explains.
 void expect_significant_score(const FitEffect& e) {
-  std::printf("[measured] %s: score T %.4g (d %d), p (iid) %.2g\n", e.effect.c_str(), e.score, e.score_dof,
-              e.score_p_value_iid);
+  std::printf("[measured] %s: score T %.4g (d %d), p (iid) %.2g, p (calibrated) %.2g, noise phi %.2f\n",
+              e.effect.c_str(), e.score, e.score_dof, e.score_p_value_iid, e.score_p_value, e.score_noise_correlation);
   EXPECT_GT(e.score_dof, 0);
   EXPECT_LT(e.score_p_value_iid, 1e-6);
+  EXPECT_LT(e.score_p_value, 0.01);
 }
 
 double fitted(const FitReport& report, const std::string& name) {
