@@ -43,6 +43,8 @@ void add_simulate_command(CLI::App& app, Context& context);
 void add_bench_command(CLI::App& app, Context& context);
 /// `twill fit DATASET [-c CONFIG] [--set K=V] [-o OUTDIR]`: the paper's protocol (command_fit.cpp).
 void add_fit_command(CLI::App& app, Context& context);
+/// `twill discover DATASET [-c CONFIG] [--set K=V] [-o OUTDIR]`: the missing effect (command_discover.cpp).
+void add_discover_command(CLI::App& app, Context& context);
 /// `twill recover ...`: one parameter-recovery run (optimiser studies, command_recover.cpp).
 void add_recover_command(CLI::App& app, Context& context);
 /// `twill sweep STUDY.yaml [-o DIR] [--jobs N]`: a study's fits, results in SQLite (command_sweep.cpp).

@@ -43,6 +43,7 @@ int main(int argc, char** argv) {
     twill::add_simulate_command(app, context);
     twill::add_bench_command(app, context);
     twill::add_fit_command(app, context);
+    twill::add_discover_command(app, context);
     twill::add_recover_command(app, context);
     twill::add_sweep_command(app, context);
     twill::add_report_command(app, context);

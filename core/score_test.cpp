@@ -193,6 +193,7 @@ void calibrate(const ScoreBasis& basis, const Statistic& observed, const std::ve
   for (const Eigen::VectorXd& p : predictions) {
     runs.push_back(fit_run_noise(observed.noise, row, p.size()));
     correlation += runs.back().phi / static_cast<double>(predictions.size());
+    out->run_noise.push_back(p.size() > 0 ? observed.noise.segment(row, p.size()).cwiseAbs().mean() : 0.0);
     row += p.size();
   }
   if (row != observed.noise.size()) throw std::logic_error("score_test: the predictions do not cover the residuals");

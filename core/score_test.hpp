@@ -40,6 +40,7 @@
 // correlation and makes the test conservative, not liberal.
 #include <Eigen/Core>
 #include <cstdint>
+#include <vector>
 
 #include "core/fit_objective.hpp"
 
@@ -56,6 +57,10 @@ struct ScoreTest {
   double p_value = 1;      ///< calibrated: the share of correlated-noise replicates with T* ≥ T (above)
   int replicates = 0;      ///< B, the bootstrap replicates behind p_value (0: not calibrated)
   double noise_correlation = 0;  ///< the runs' mean fitted lag-one correlation φ of the noise
+  /// Per predictor (run): the mean |u| over its rows, u the residual neither the baseline nor
+  /// the candidate explains — in relative-residual units, the average relative error the
+  /// run's noise alone makes (`twill discover`'s floor). Empty when not evaluated.
+  std::vector<double> run_noise;
   Eigen::MatrixXd signature;  ///< P J_e: m × (candidate's unknowns), residual units
 };
 

@@ -26,11 +26,13 @@ double geometric_mean(const std::vector<double>& v) {
   return v.empty() ? 0.0 : std::exp(log_sum / static_cast<double>(v.size()));
 }
 
-double mean_run_error(const FitObjective& objective, size_t n) {
+std::vector<double> run_errors(const FitObjective& objective, size_t n) {
   std::vector<double> e;
   for (size_t i = 0; i < n; ++i) e.push_back(objective.average_relative_error(static_cast<int>(i)));
-  return mean(e);
+  return e;
 }
+
+double mean_run_error(const FitObjective& objective, size_t n) { return mean(run_errors(objective, n)); }
 
 namespace {
 

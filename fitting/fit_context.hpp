@@ -99,7 +99,8 @@ double seconds_since(Clock::time_point t);
 double mean(const std::vector<double>& v);
 /// exp(mean(log v)) of positive values (0 for none).
 double geometric_mean(const std::vector<double>& v);
-/// The mean of the first n runs' average relative errors (model.md §8).
+/// The first n runs' average relative errors (model.md §8), and their mean.
+std::vector<double> run_errors(const FitObjective& objective, size_t n);
 double mean_run_error(const FitObjective& objective, size_t n);
 
 class FitContext {

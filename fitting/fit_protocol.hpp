@@ -125,6 +125,16 @@ struct FitEffectParameter {
   double value = 0, lower = 0, upper = 0;
 };
 
+/// One test's share of an effect-fit stage: its runs' mean error without and with the effect,
+/// and the noise floor (ScoreTest::run_noise averaged over the test's runs; NaN when the score
+/// test was not evaluated).
+struct FitEffectTest {
+  std::string test;  ///< the test's label; "<label> lateral strain", "bend <label>" for those observables
+  int runs = 0;
+  double error_without = 0, error_with = 0;
+  double noise_floor = std::numeric_limits<double>::quiet_NaN();
+};
+
 /// What an effect-fit stage found (docs/effects.md): the effect's parameters and the error on
 /// its runs without the effect (its neutral values) and with it.
 struct FitEffect {
@@ -143,6 +153,8 @@ struct FitEffect {
   double score_p_value = 1;
   double score_noise_correlation = 0;
   std::vector<FitEffectParameter> parameters;
+  std::vector<FitEffectTest> tests;  ///< per test, in the order the stage's runs come
+
 };
 
 struct FitReport {
@@ -179,6 +191,9 @@ FitReport run_fit(const Dataset& dataset, const Options& config, const Registry&
 /// too. Throws InputError located by `locate`, e.g. at "protocol[3].stage".
 void check_fit_protocol(const Dataset& dataset, const Options& config, const Registry& registry,
                         const ConfigKeyLocator& locate);
+
+/// report.json's text (every curve, the stages, the effects; what write_fit_outputs writes).
+std::string fit_report_json_text(const FitReport& report, const Options& config);
 
 /// Writes params.yaml, report.json (with every curve, for scripts/plot_fit.py), report.md and
 /// config.yaml (the resolved config) into `dir` (created if needed). `twill fit` writes into a

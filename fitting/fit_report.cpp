@@ -147,6 +147,11 @@ json report_json(const FitReport& r, const Options& config) {
     for (const FitEffectParameter& q : e.parameters)
       parameters.push_back({{"name", q.name}, {"unit", q.unit}, {"value", q.value}, {"lower", q.lower},
                             {"upper", q.upper}});
+    json tests = json::array();
+    for (const FitEffectTest& t : e.tests)
+      tests.push_back({{"test", t.test}, {"runs", t.runs}, {"error_without", t.error_without},
+                       {"error_with", t.error_with},
+                       {"noise_floor", std::isfinite(t.noise_floor) ? json(t.noise_floor) : json(nullptr)}});
     j["effects"].push_back({{"effect", e.effect}, {"resolution", e.resolution}, {"runs", e.runs},
                             {"points", e.points}, {"error_without", e.error_without},
                             {"error_with", e.error_with},
@@ -155,7 +160,7 @@ json report_json(const FitReport& r, const Options& config) {
                             {"score_dof", e.score_dof}, {"score_p_value_iid", e.score_p_value_iid},
                             {"score_p_value", e.score_p_value},
                             {"score_noise_correlation", e.score_noise_correlation},
-                            {"parameters", parameters}});
+                            {"parameters", parameters}, {"tests", tests}});
   }
   json timing = json::object();
   for (const auto& [k, v] : r.timing_s) timing[k] = v;
@@ -288,6 +293,10 @@ void write_text(const fs::path& path, const std::string& text) {
 }
 
 }  // namespace
+
+std::string fit_report_json_text(const FitReport& report, const Options& config) {
+  return dump(report_json(report, config));
+}
 
 void write_fit_outputs(const FitReport& report, const Options& config, const std::string& dir) {
   const fs::path d(dir);

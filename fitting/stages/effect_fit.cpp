@@ -50,6 +50,7 @@ struct EffectFitOptions {
   std::string observable = "force_N";
   int level = kFinestSoFar;
   bool with_curves = true;
+  bool fit = true;
   int rounds = 3;
   bool validate(std::string* error) const;
 };
@@ -67,6 +68,9 @@ OptionBindings<EffectFitOptions> effect_fit_bindings() {
                             in_range(kFinestSoFar, 4)),
           bool_option<S>("with_curves", &S::with_curves,
                          "free every fitted tensile-curve stage's stiffness and curve with the effect (false: the law held)"),
+          bool_option<S>("fit", &S::fit,
+                         "false: nothing fitted, the error with the effect is the runs' at the parameters so far "
+                         "(twill discover's held-out check: parameters fitted on other specimens, start-from)"),
           // Three: warp and weft offsets settle in the first round (the gauge's unconstrained
           // Δθ²); a stiff-yarn bias converges linearly, measured on poplin-like strips (1°
           // strip: 0.65, 0.75, 0.90, 1.00° over rounds 2–5; tests/fitting/test_fit_effects.cpp),
@@ -107,17 +111,29 @@ class EffectFit final : public FitStage {
     const auto index = static_cast<size_t>(configured - context.params.effects.begin());  // params is replaced below
     const int level = options_.level == kFinestSoFar ? context.finest_level : std::min(options_.level, context.levels() - 1);
     if (is_angle_offset(*context.effects.at(index))) {
+      if (!options_.fit)
+        throw std::runtime_error("effect-fit " + options_.effect + ": fit: false is not available for an angle-offset "
+                                 "effect (its per-run offsets are found by fitting)");
       fit_offsets(context, index, level, out);
       return;
     }
     const auto t = Clock::now();
     select_runs(context);
     std::vector<std::shared_ptr<Predictor>> predictors;
-    for (const RunData& d : runs_) predictors.push_back(context.tensile_experiment(d, level, context.params));
-    for (const RunData& d : lateral_runs_)
+    std::vector<std::string> tests;  // each predictor's test, for the per-test breakdown
+    for (const RunData& d : runs_) {
+      predictors.push_back(context.tensile_experiment(d, level, context.params));
+      tests.push_back(d.test->label);
+    }
+    for (const RunData& d : lateral_runs_) {
       predictors.push_back(context.tensile_experiment(d, level, context.params, kLateralExperiment));
+      tests.push_back(d.test->label + " lateral strain");
+    }
     if (bends())
-      for (const BendTest& b : context.dataset().bend) predictors.push_back(context.bend_experiment(b, context.params));
+      for (const BendTest& b : context.dataset().bend) {
+        predictors.push_back(context.bend_experiment(b, context.params));
+        tests.push_back("bend " + b.label);
+      }
     if (predictors.empty())
       throw std::runtime_error("effect-fit " + options_.effect + ": the dataset has no " + options_.observable + " data");
     const std::vector<EffectParameter> parameters = effect_parameters({*configured}, context.registry());
@@ -131,9 +147,21 @@ class EffectFit final : public FitStage {
     std::vector<const RunData*> force_runs;
     for (const RunData& d : runs_) force_runs.push_back(&d);
     FitEffect result = effect_record(context, level, predictors);
-    result.error_without = error_at_neutral(context, *configured, effect_free, map_options, predictors, force_runs);
-    score_at_neutral(context, *configured, free, effect_free.size(), map_options, predictors, force_runs, &result);
-    result.error_with = fit_free(context, free, map_options, predictors, force_runs, result.resolution, t);
+    const std::vector<double> without =
+        errors_at_neutral(context, *configured, effect_free, map_options, predictors, force_runs);
+    if (!options_.fit) {  // evaluated where it stands: no score (nothing is fitted), no noise floor
+      set_errors(tests,
+                 free_scale_errors(neutral_params(context, *configured), effect_free, map_options, predictors,
+                                   force_runs.size()),
+                 free_scale_errors(context.params, effect_free, map_options, predictors, force_runs.size()), {},
+                 &result);
+      finish(context, std::move(result), out);
+      return;
+    }
+    const std::vector<double> noise =
+        score_at_neutral(context, *configured, free, effect_free.size(), map_options, predictors, force_runs, &result);
+    const std::vector<double> with = fit_free(context, free, map_options, predictors, force_runs, result.resolution, t);
+    set_errors(tests, without, with, noise, &result);
     for (const EffectParameter& p : effect_parameters({context.params.effects[index]}, context.registry()))
       result.parameters.push_back({p.name, p.unit, p.value, p.lower, p.upper});
     finish(context, std::move(result), out);
@@ -161,6 +189,28 @@ class EffectFit final : public FitStage {
     return result;
   }
 
+  // The stage's errors: the mean over runs and per test (`tests`: each run's), with each test's
+  // noise floor (the mean of its runs' `noise`; empty when the score test was not evaluated).
+  static void set_errors(const std::vector<std::string>& tests, const std::vector<double>& without,
+                         const std::vector<double>& with, const std::vector<double>& noise, FitEffect* result) {
+    result->error_without = mean(without);
+    result->error_with = mean(with);
+    for (size_t i = 0; i < tests.size(); ++i) {
+      auto t = std::find_if(result->tests.begin(), result->tests.end(),
+                            [&](const FitEffectTest& e) { return e.test == tests[i]; });
+      if (t == result->tests.end()) t = result->tests.insert(t, FitEffectTest{tests[i], 0, 0, 0, noise.empty() ? std::numeric_limits<double>::quiet_NaN() : 0.0});
+      t->error_without += without[i];
+      t->error_with += with[i];
+      if (!noise.empty()) t->noise_floor += noise[i];
+      ++t->runs;
+    }
+    for (FitEffectTest& t : result->tests) {
+      t.error_without /= t.runs;
+      t.error_with /= t.runs;
+      t.noise_floor /= t.runs;
+    }
+  }
+
   void finish(FitContext& context, FitEffect result, FitReport& out) const {
     context.note(fmt::format("effect {}: error {:.2f} % without it, {:.2f} % with it ({} runs, {} points, {})",
                              options_.effect, 100 * result.error_without, 100 * result.error_with, result.runs,
@@ -169,9 +219,9 @@ class EffectFit final : public FitStage {
   }
 
   // Fits `free` entries of context.params to `predictors` with the config's optimiser, records
-  // the stage's row and returns the runs' mean error at the optimum. The first predictors
+  // the stage's row and returns each run's error at the optimum. The first predictors
   // predict `force_runs`' forces, each with its specimen scale when the config models one.
-  double fit_free(FitContext& context, const std::vector<std::string>& free, const ParameterMap::Options& map_options,
+  std::vector<double> fit_free(FitContext& context, const std::vector<std::string>& free, const ParameterMap::Options& map_options,
                   const std::vector<std::shared_ptr<Predictor>>& predictors,
                   const std::vector<const RunData*>& force_runs, const std::string& resolution,
                   Clock::time_point t) const {
@@ -189,9 +239,9 @@ class EffectFit final : public FitStage {
                                objective.last_failure());
     context.params = map.parameters(r.x);
     context.keep_scales(force_runs, objective.scales());
-    const double error = mean_run_error(objective, predictors.size());
-    context.record_stage("effect " + options_.effect, resolution, 0, error, *optimizer, r, objective, t);
-    return error;
+    const std::vector<double> errors = run_errors(objective, predictors.size());
+    context.record_stage("effect " + options_.effect, resolution, 0, mean(errors), *optimizer, r, objective, t);
+    return errors;
   }
 
   // An angle-offset effect (misalignment, docs/effects/misalignment.md): `rounds` rounds of
@@ -212,9 +262,9 @@ class EffectFit final : public FitStage {
     OffsetSearchOptions search_options;
     search_options.free_scale = context.config().repeats.scale == SpecimenScale::PerRun;
     OffsetSearch search(search_options, context.effects[index]);
-    const double error_without = error_at_nominal_angles(context, fixed, level);
+    const std::vector<double> without = errors_at_nominal_angles(context, fixed, level);
     std::vector<std::shared_ptr<Predictor>> predictors;
-    double error_with = 0;
+    std::vector<double> with;
     std::string resolution;
     for (int round = 0; round < options_.rounds; ++round) {
       const auto t = Clock::now();
@@ -238,12 +288,13 @@ class EffectFit final : public FitStage {
       resolution = resolution_at(context, level);
       std::vector<std::string> free;
       append_curve_parameters(context, &free);
-      error_with = fit_free(context, free, {}, predictors, fixed, resolution, t);
+      with = fit_free(context, free, {}, predictors, fixed, resolution, t);
       report_offsets(context, round, fixed);
     }
     FitEffect result = effect_record(context, level, predictors);
-    result.error_without = error_without;
-    result.error_with = error_with;
+    std::vector<std::string> tests;
+    for (const RunData* d : fixed) tests.push_back(d->test->label);
+    set_errors(tests, without, with, {}, &result);
     std::vector<Eigen::VectorXd> run_values;
     for (const RunData* d : fixed)
       run_values.push_back(Eigen::VectorXd::Constant(1, FitContext::strip_offset(*d)));
@@ -369,7 +420,7 @@ class EffectFit final : public FitStage {
   // The score test of the effect at the parameters so far with the effect neutral
   // (core/score_test.hpp): the baseline's directions are the curves freed with it (`free`
   // after its first n_effect entries, the effect's) and the runs' specimen scales.
-  void score_at_neutral(FitContext& context, const ComponentChoice& configured,
+  std::vector<double> score_at_neutral(FitContext& context, const ComponentChoice& configured,
                         const std::vector<std::string>& free, size_t n_effect, const ParameterMap::Options& map_options,
                         const std::vector<std::shared_ptr<Predictor>>& predictors,
                         const std::vector<const RunData*>& force_runs, FitEffect* result) const {
@@ -385,15 +436,17 @@ class EffectFit final : public FitStage {
       result->score_p_value_iid = t.p_value_iid;
       result->score_p_value = t.p_value;
       result->score_noise_correlation = t.noise_correlation;
+      return t.run_noise;
     } catch (const std::runtime_error& e) {
       result->score = std::numeric_limits<double>::quiet_NaN();  // reported as not evaluated, and why
       context.note("effect " + options_.effect + ": score test not evaluated: " + e.what());
     }
+    return {};
   }
 
-  // The runs' mean error at `params`, by the fit objective's measure (each force run with its
+  // Each run's error at `params`, by the fit objective's measure (each force run with its
   // profiled scale under repeats.scale: per-run): what error_with is measured by.
-  static double error_at(const FitContext& context, const MaterialParameters& params,
+  static std::vector<double> errors_at(const FitContext& context, const MaterialParameters& params,
                          const std::vector<std::string>& free, const ParameterMap::Options& map_options,
                          const std::vector<std::shared_ptr<Predictor>>& predictors,
                          const std::vector<const RunData*>& force_runs) {
@@ -401,26 +454,52 @@ class EffectFit final : public FitStage {
     FitObjective objective(map, predictors);
     objective.set_scale_groups(context.scale_groups(force_runs, predictors.size()));
     objective.evaluate(map.initial_x(), nullptr);
-    return mean_run_error(objective, predictors.size());
+    return run_errors(objective, predictors.size());
   }
 
   // The fit runs' mean error at their nominal angles with the curves as fitted so far — not the
   // offset search's misfit, whose scale is the run's own unconstrained best one and would
   // flatter the nominal model.
-  static double error_at_nominal_angles(FitContext& context, const std::vector<const RunData*>& runs, int level) {
+  static std::vector<double> errors_at_nominal_angles(FitContext& context, const std::vector<const RunData*>& runs,
+                                                      int level) {
     std::vector<std::shared_ptr<Predictor>> predictors;
     for (const RunData* d : runs) predictors.push_back(context.tensile_experiment(*d, level, context.params));
     std::vector<std::string> curves;  // evaluated at their values, not fitted
     append_curve_parameters(context, &curves);
-    return error_at(context, context.params, curves, {}, predictors, runs);
+    return errors_at(context, context.params, curves, {}, predictors, runs);
   }
 
-  // The runs' mean error with the effect at its neutral values (the schema defaults).
-  static double error_at_neutral(const FitContext& context, const ComponentChoice& configured,
+  // Each run's error at `params` with each force run (the first `force_runs` predictors) at its
+  // own best scale s = argmin Σ|s p̂ − p̆| (the error's own measure, a weighted median; robust to
+  // the near-zero forces at the end of an unloading branch, where p̂/p̆ is not) — no gauge: the
+  // specimens of an evaluation are not those the parameters were fitted on, so their mean scale
+  // is theirs to have (with the gauge a fold of lighter specimens would read as a stiffness
+  // error of the law).
+  std::vector<double> free_scale_errors(const MaterialParameters& params, const std::vector<std::string>& free,
+                                        const ParameterMap::Options& map_options,
+                                        const std::vector<std::shared_ptr<Predictor>>& predictors,
+                                        size_t force_runs) const {
+    ParameterMap map(params, free, map_options);
+    FitObjective objective(map, predictors);
+    if (!std::isfinite(objective.evaluate(map.initial_x(), nullptr)))
+      throw std::runtime_error("effect-fit " + options_.effect + ": the runs could not be evaluated: " +
+                               objective.last_failure());
+    std::vector<double> errors;
+    for (size_t i = 0; i < predictors.size(); ++i) {
+      const Eigen::VectorXd& p = objective.last_predictions()[i];
+      const Eigen::VectorXd& m = predictors[i]->measured();
+      const double s = i < force_runs ? linearised_l1_minimiser(Eigen::VectorXd::Zero(p.size()), p, m) : 1.0;
+      errors.push_back((s * p - m).cwiseAbs().sum() / m.cwiseAbs().sum());
+    }
+    return errors;
+  }
+
+  // Each run's error with the effect at its neutral values (the schema defaults).
+  static std::vector<double> errors_at_neutral(const FitContext& context, const ComponentChoice& configured,
                                  const std::vector<std::string>& free, const ParameterMap::Options& map_options,
                                  const std::vector<std::shared_ptr<Predictor>>& predictors,
                                  const std::vector<const RunData*>& force_runs) {
-    return error_at(context, neutral_params(context, configured), free, map_options, predictors, force_runs);
+    return errors_at(context, neutral_params(context, configured), free, map_options, predictors, force_runs);
   }
 };
 

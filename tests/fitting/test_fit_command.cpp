@@ -79,3 +79,53 @@ TEST(FitCommand, PrintConfigListsEveryProtocolKey) {
 }
 
 }  // namespace
+
+namespace {
+
+// `twill discover` (fitting/discovery.hpp) as a user runs it: a candidate that is not a
+// registered effect fails before any fit, naming the key and the known names; on the bundled
+// canvas (no unloading rows, no second rate, no lateral strain, one cantilever per direction)
+// every candidate but those the data can test is `untestable`, with what it needs, and the
+// outputs land complete.
+TEST(DiscoverCommand, UnknownCandidateFailsBeforeAnyFit) {
+  const fs::path out = fs::temp_directory_path() / ("twill-discover-bad-" + std::to_string(::getpid()));
+  fs::remove_all(out);
+  const std::string dataset = std::string(TWILL_SOURCE_DIR) + "/examples/canvas";
+  const CommandResult r = twill("discover " + dataset + " -o " + out.string() + " --quiet --set 'discover.candidates=[friction]'");
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_NE(r.output.find("friction"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("hysteresis"), std::string::npos) << r.output;  // the known names
+  EXPECT_FALSE(fs::exists(out));
+  const CommandResult config = twill("discover --print-config");
+  EXPECT_EQ(config.status, 0) << config.output;
+  EXPECT_NE(config.output.find("discover:"), std::string::npos) << config.output;
+  EXPECT_NE(config.output.find("min_excess_shrink"), std::string::npos) << config.output;
+}
+
+TEST(DiscoverCommand, UntestableCandidatesAreReportedWithWhatTheyNeed) {
+  const fs::path out = fs::temp_directory_path() / ("twill-discover-canvas-" + std::to_string(::getpid()));
+  fs::remove_all(out);
+  const std::string dataset = std::string(TWILL_SOURCE_DIR) + "/examples/canvas";
+  const std::string tiny =
+      " --set resolution.coarse_cells_across=2 --set resolution.levels=1 --set data.max_points=6"
+      " --set 'protocol=[{name: tensile-curve, label: warp, angle_deg: 90, term: eta1, max_degree: 1},"
+      " {name: tensile-curve, label: weft, angle_deg: 0, term: eta3, max_degree: 1},"
+      " {name: effect-fit, effect: hysteresis}]'"
+      " --set 'discover.candidates=[hysteresis, rate-dependence, poisson]'";
+  const CommandResult r = twill("discover " + dataset + " -o " + out.string() + " --quiet --no-plots" + tiny);
+  ASSERT_EQ(r.status, 0) << r.output;
+  std::ifstream in(out / "discover.json");
+  std::stringstream text;
+  text << in.rdbuf();
+  const std::string json = text.str();
+  EXPECT_NE(json.find("\"verdict\""), std::string::npos) << json;
+  EXPECT_NE(json.find("needs: a tensile run that goes up and comes back down"), std::string::npos) << json;
+  EXPECT_NE(json.find("needs: lateral strain"), std::string::npos) << json;
+  EXPECT_EQ(json.find("\"named\": [\n    \""), std::string::npos) << json;  // nothing named
+  for (const char* file : {"discover.md", "params.yaml", "config.yaml", "baseline-report.json", ".twill-discover"})
+    EXPECT_TRUE(fs::exists(out / file)) << file;
+  EXPECT_FALSE(fs::exists(out.string() + ".partial"));
+  fs::remove_all(out);
+}
+
+}  // namespace

@@ -1,0 +1,617 @@
+#include "fitting/discovery.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include <stdlib.h>  // mkdtemp
+
+#include "core/params_io.hpp"
+#include "effects/effect.hpp"
+#include "fitting/fit_config.hpp"
+
+namespace twill {
+
+namespace {
+
+using json = nlohmann::json;
+namespace fs = std::filesystem;
+
+constexpr const char* kSection = "discover";
+constexpr const char* kEffectFitStage = "effect-fit";
+
+// What separates two effects that explain the same misfit: the data a tie names as needed.
+// Keyed by the pair in registration-independent (alphabetical) order.
+const std::map<std::pair<std::string, std::string>, std::string>& separating_data() {
+  static const std::map<std::pair<std::string, std::string>, std::string> table = {
+      {{"hysteresis", "rate-dependence"}, "runs of one test at two or more crosshead speeds (a rate loop narrows "
+                                          "at the slower speed, a friction loop does not)"},
+      {{"misalignment", "specimen scale"}, "lateral strain or a shear-angle measurement of each strip"},
+  };
+  return table;
+}
+
+std::string needs_to_separate(const std::string& a, const std::string& b) {
+  const auto key = a < b ? std::make_pair(a, b) : std::make_pair(b, a);
+  const auto found = separating_data().find(key);
+  return found != separating_data().end() ? found->second
+                                          : "held-out observations that one of them predicts and the other does not";
+}
+
+bool has_effect_fit_stage(const Options& fit_config, const std::string& effect) {
+  for (const ComponentChoice& stage : fit_config.get_component_list("protocol"))
+    if (stage.name == kEffectFitStage && stage.options.get_string("effect") == effect) return true;
+  return false;
+}
+
+std::string yaml_list(const std::vector<std::string>& names) {
+  std::string out;
+  for (const std::string& n : names) out += (out.empty() ? "" : ", ") + n;
+  return "[" + out + "]";
+}
+
+// The fit config with `effects` (each at its schema defaults: the neutral values).
+Options with_effects(const Options& fit_config, const std::vector<std::string>& effects, const Registry& registry) {
+  Options config = fit_config;
+  apply_override(config, fit_config_schema(), &registry, "effects=" + yaml_list(effects));
+  return config;
+}
+
+// The mean of a test's noise floors over the candidates that measured one: the noise model of
+// the candidate that explains most leaves the least, so the smallest is the floor.
+std::map<std::string, double> floors_by_test(const std::vector<DiscoverCandidate>& candidates) {
+  std::map<std::string, double> floors;
+  for (const DiscoverCandidate& c : candidates) {
+    if (!c.effect) continue;
+    for (const FitEffectTest& t : c.effect->tests) {
+      if (!std::isfinite(t.noise_floor)) continue;
+      const auto found = floors.find(t.test);
+      if (found == floors.end() || t.noise_floor < found->second) floors[t.test] = t.noise_floor;
+    }
+  }
+  return floors;
+}
+
+// The candidate's floor over its runs: its tests' floors (the smallest any candidate measured)
+// weighted by their runs; NaN when none of its tests has one.
+double candidate_floor(const FitEffect& e, const std::map<std::string, double>& floors) {
+  double sum = 0;
+  int runs = 0;
+  for (const FitEffectTest& t : e.tests) {
+    const auto found = floors.find(t.test);
+    if (found == floors.end()) continue;
+    sum += t.runs * found->second;
+    runs += t.runs;
+  }
+  return runs > 0 ? sum / runs : std::numeric_limits<double>::quiet_NaN();
+}
+
+// Whether the misfit in excess of the floor shrinks `factor`-fold, and the sentence saying so.
+bool excess_shrinks(const FitEffect& e, double floor, double factor, std::string* words) {
+  const double before = e.error_without - floor, after = std::max(e.error_with - floor, 0.0);
+  *words = fmt::format("error {:.2f} % → {:.2f} % against a floor of {:.2f} %", 100 * e.error_without,
+                       100 * e.error_with, 100 * floor);
+  return before > 0 && before >= factor * after;
+}
+
+// One candidate's status from its own effect-fit record (`threshold`: α / candidates tested).
+void judge_one(const DiscoverOptions& options, double threshold, double floor, DiscoverCandidate* c) {
+  const FitEffect& e = *c->effect;
+  std::string gain;
+  const bool shrinks = std::isfinite(floor) && excess_shrinks(e, floor, options.min_excess_shrink, &gain);
+  if (!std::isfinite(floor)) gain = fmt::format("error {:.2f} % → {:.2f} %, no noise floor measured",
+                                                100 * e.error_without, 100 * e.error_with);
+  if (!std::isfinite(e.score)) {
+    // A per-run effect (misalignment's offsets) has no score test: whatever its offsets explain,
+    // a specimen scale per run explains by moving the whole curve too.
+    c->status = shrinks ? "tied" : "rejected";
+    c->reason = shrinks ? gain + "; no score test for its per-run values, which trade with the specimen scales (needs: " +
+                              needs_to_separate(c->name, "specimen scale") + ")"
+                        : gain + "; no score test, and the excess over the floor did not shrink " +
+                              fmt::format("{:g}-fold", options.min_excess_shrink);
+    return;
+  }
+  if (!(e.score_p_value < threshold)) {
+    c->status = "rejected";
+    c->reason = fmt::format("calibrated p {:.2g} ≥ α/n = {:.2g} (T {:.3g}, d {}); {}", e.score_p_value, threshold,
+                            e.score, e.score_dof, gain);
+    return;
+  }
+  c->status = shrinks ? "named" : "rejected";
+  c->reason = fmt::format("calibrated p {:.2g} {} α/n = {:.2g}; {}{}", e.score_p_value, "<", threshold, gain,
+                          shrinks ? "" : fmt::format(": the excess over the floor shrank less than {:g}-fold",
+                                                     options.min_excess_shrink));
+  if (!shrinks) return;
+  const DiscoverHeldOut& h = c->held_out;
+  if (h.evaluated) {
+    const bool holds = h.with < h.without;
+    c->reason += fmt::format("; held-out specimens {:.2f} % without → {:.2f} % with", 100 * h.without, 100 * h.with);
+    if (!holds) {
+      c->status = "rejected";
+      c->reason += ": the improvement does not hold on specimens the fit did not see";
+    }
+  } else if (!h.note.empty()) {
+    c->reason += "; held-out check not made: " + h.note;
+  }
+}
+
+const FitEffect* record_of(const std::vector<FitEffect>& records, const std::string& name) {
+  for (const FitEffect& e : records)
+    if (e.effect == name) return &e;
+  return nullptr;
+}
+
+// Several candidates passed alone: in the joint refit each effect-fit stage is scored after the
+// ones before it in the protocol. A passing candidate whose score is no longer significant there
+// explained nothing the earlier ones did not: tied with the first earlier one that passed.
+void resolve_joint(const std::vector<FitEffect>& joint, double threshold, DiscoverResult* result,
+                   std::vector<std::string>* ties) {
+  std::vector<std::string> earlier;
+  for (const FitEffect& e : joint) {
+    auto c = std::find_if(result->candidates.begin(), result->candidates.end(),
+                          [&](const DiscoverCandidate& d) { return d.name == e.effect && d.status == "named"; });
+    if (c == result->candidates.end()) continue;
+    if (!earlier.empty() && !(e.score_p_value < threshold)) {
+      c->status = "tied";
+      c->reason += fmt::format("; after {} in the joint refit its calibrated p is {:.2g}: it explains what {} does",
+                               earlier.front(), e.score_p_value, earlier.front());
+      const auto first = std::find_if(result->candidates.begin(), result->candidates.end(),
+                                      [&](const DiscoverCandidate& d) { return d.name == earlier.front(); });
+      first->status = "tied";
+      ties->push_back(fmt::format("tied: {}|{} (needs: {})", earlier.front(), e.effect,
+                                  needs_to_separate(earlier.front(), e.effect)));
+    }
+    earlier.push_back(e.effect);
+  }
+}
+
+}  // namespace
+
+Options discover_fit_config(const Options& config) {
+  Options fit;
+  for (const OptionEntry& e : config.entries())
+    if (e.key != kSection) fit.set(e.key, e.value);
+  return fit;
+}
+
+OptionSchema discover_config_schema() {
+  OptionSchema schema = fit_config_schema();
+  OptionSchema& d = schema.add_section(kSection, "twill discover: candidates and acceptance (docs/discover.md)");
+  d.add_component_list("candidates", registry_category::kEffect,
+                       "the effects it tests (empty: every registered effect, twill list effect)");
+  d.add_double("alpha", DiscoverOptions{}.alpha,
+               "family-wise level of the calibrated score tests (Bonferroni over the candidates tested)")
+      .range(1e-6, 0.5);
+  d.add_double("min_excess_shrink", DiscoverOptions{}.min_excess_shrink,
+               "a named effect divides the misfit in excess of the noise floor at least by this")
+      .greater_than(1);
+  d.add_double("unexplained_ratio", DiscoverOptions{}.unexplained_ratio,
+               "with nothing named, a test whose baseline error exceeds this times its floor is `unexplained`")
+      .greater_than(1);
+  d.add_bool("held_out", DiscoverOptions{}.held_out,
+             "name an effect only if it also lowers the error of specimens its fit did not see (two folds; 4 more "
+             "fits per passing candidate)");
+  return schema;
+}
+
+DiscoverOptions read_discover_options(const Options& config) {
+  const Options& d = config.get_section(kSection);
+  DiscoverOptions out;
+  for (const ComponentChoice& c : d.get_component_list("candidates")) out.candidates.push_back(c.name);
+  out.alpha = d.get_double("alpha");
+  out.min_excess_shrink = d.get_double("min_excess_shrink");
+  out.unexplained_ratio = d.get_double("unexplained_ratio");
+  out.held_out = d.get_bool("held_out");
+  return out;
+}
+
+std::vector<DiscoverCandidate> audit_candidates(const Dataset& dataset, const Options& fit_config,
+                                                const DiscoverOptions& options, const Registry& registry) {
+  const RegistryCategory* effects = registry.find_category(registry_category::kEffect);
+  std::vector<std::string> names = options.candidates;
+  if (names.empty())
+    for (const RegistryEntry& e : effects->entries()) names.push_back(e.name);
+  std::vector<DiscoverCandidate> out;
+  for (const std::string& name : names) {
+    DiscoverCandidate c{name, "", "", std::nullopt, {}};
+    const ComponentChoice choice{registry_category::kEffect, name, default_options(effects->at(name).options, &registry)};
+    const std::string missing = registry.create<EffectFactories>(registry_category::kEffect, choice)->missing_data(dataset);
+    if (!missing.empty()) {
+      constexpr std::string_view kNeeds = "needs ";  // the predicates say "needs …"
+      c.status = "untestable";
+      c.reason = "needs: " + (missing.rfind(kNeeds, 0) == 0 ? missing.substr(kNeeds.size()) : missing);
+    } else if (!has_effect_fit_stage(fit_config, name)) {
+      c.status = "untestable";
+      c.reason = "needs: an effect-fit stage for it in the protocol";
+    }
+    out.push_back(std::move(c));
+  }
+  return out;
+}
+
+void judge_candidates(const DiscoverOptions& options, const std::vector<FitEffect>* joint, DiscoverResult* result) {
+  result->named.clear();
+  const auto floors = floors_by_test(result->candidates);
+  int tested = 0;
+  for (const DiscoverCandidate& c : result->candidates) tested += c.effect.has_value();
+  const double threshold = options.alpha / std::max(tested, 1);
+  for (DiscoverCandidate& c : result->candidates)
+    if (c.effect) judge_one(options, threshold, candidate_floor(*c.effect, floors), &c);
+  std::vector<std::string> ties;
+  if (joint) resolve_joint(*joint, threshold, result, &ties);
+  for (const DiscoverCandidate& c : result->candidates) {
+    if (c.status == "named") result->named.push_back(c.name);
+    if (c.status == "tied" && !c.effect->tests.empty() && !std::isfinite(c.effect->score))
+      ties.push_back(fmt::format("tied: {}|specimen scale (needs: {})", c.name, needs_to_separate(c.name, "specimen scale")));
+  }
+  if (!ties.empty())
+    result->verdict = ties.front();
+  else if (!result->named.empty())
+    result->verdict = "named";
+  else
+    result->verdict = "none";  // run_discover looks for an unexplained misfit then
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// The config's repeats made the baseline's (every repeat, a scale per run), saying what changed.
+Options baseline_config(const Options& config, const Registry& registry, std::vector<std::string>* notes) {
+  Options fit = discover_fit_config(config);
+  const Options& repeats = fit.get_section("repeats");
+  if (repeats.get_string("rule") != "all" || repeats.get_string("scale") != "per-run")
+    notes->push_back(fmt::format("the baseline fits every repeat with a specimen scale per run (repeats.rule: all, "
+                                 "repeats.scale: per-run; the config had {}, {}): the scatter between specimens is "
+                                 "the floor every effect is judged against",
+                                 repeats.get_string("rule"), repeats.get_string("scale")));
+  apply_overrides(fit, fit_config_schema(), &registry, {"repeats.rule=all", "repeats.scale=per-run"});
+  if (!fit.get_component_list("effects").empty())
+    notes->push_back("the config's effects are not part of the baseline: list them under discover.candidates");
+  return with_effects(fit, {}, registry);
+}
+
+FitProgress prefixed(const FitProgress& progress, const std::string& what) {
+  return [progress, what](int level, const std::string& line) {
+    if (progress) progress(level + 1, what + ": " + line);
+  };
+}
+
+// Each testable candidate fitted alone; its report kept by name for the refit.
+void fit_candidates(const Dataset& dataset, const Options& fit, const Registry& registry, const FitProgress& progress,
+                    DiscoverResult* result, std::map<std::string, FitReport>* reports) {
+  for (DiscoverCandidate& c : result->candidates) {
+    if (!c.status.empty()) continue;
+    const auto t = Clock::now();
+    if (progress) progress(0, "candidate " + c.name + ": fitting the protocol with it");
+    try {
+      FitReport r = run_fit(dataset, with_effects(fit, {c.name}, registry), registry, prefixed(progress, c.name));
+      const FitEffect* e = record_of(r.effects, c.name);
+      if (!e) throw std::runtime_error("its effect-fit stage did not run");
+      c.effect = *e;
+      (*reports)[c.name] = std::move(r);
+    } catch (const std::exception& e) {
+      c.status = "failed";
+      c.reason = std::string("the fit with it failed: ") + e.what();
+    }
+    if (progress && c.effect)
+      progress(0, fmt::format("candidate {}: error {:.2f} % → {:.2f} %, {} ({:.0f} s)", c.name,
+                              100 * c.effect->error_without, 100 * c.effect->error_with,
+                              std::isfinite(c.effect->score) ? fmt::format("calibrated p {:.2g}", c.effect->score_p_value)
+                                                             : std::string("no score test"),
+                              std::chrono::duration<double>(Clock::now() - t).count()));
+  }
+}
+
+std::vector<std::string> with_status(const DiscoverResult& result, const std::string& status) {
+  std::vector<std::string> out;
+  for (const DiscoverCandidate& c : result.candidates)
+    if (c.status == status) out.push_back(c.name);
+  return out;
+}
+
+// The gap per test: from the refit's effect-fit records (before: the first record holding the
+// test, after: the last), else from the record of the candidate fitted on the most points.
+void measure_gap(const DiscoverResult& result, const std::map<std::string, double>& floors,
+                 std::vector<DiscoverGap>* gap, std::string* rows) {
+  std::vector<const FitEffect*> records;
+  if (result.refit)
+    for (const FitEffect& e : result.refit->effects) records.push_back(&e);
+  if (records.empty()) {
+    const FitEffect* most = nullptr;
+    for (const DiscoverCandidate& c : result.candidates)
+      if (c.effect && (!most || c.effect->points > most->points)) most = &*c.effect;
+    if (!most) return;
+    records.push_back(most);
+    *rows = "the rows of effect-fit " + most->effect + " (nothing named: before = after)";
+  } else {
+    *rows = "the refit's effect-fit stages (" + result.refit->effects.front().effect + " … " +
+            result.refit->effects.back().effect + ")";
+  }
+  for (const FitEffect* e : records)
+    for (const FitEffectTest& t : e->tests) {
+      auto g = std::find_if(gap->begin(), gap->end(), [&](const DiscoverGap& d) { return d.test == t.test; });
+      if (g == gap->end()) {
+        const auto floor = floors.find(t.test);
+        gap->push_back({t.test, t.error_without, t.error_without,
+                        floor != floors.end() ? floor->second : std::numeric_limits<double>::quiet_NaN()});
+        g = gap->end() - 1;
+      }
+      g->after = result.refit ? t.error_with : t.error_without;
+    }
+}
+
+// The extension range over which the baseline's curves of `test` miss by more than `limit`
+// (relative), "" when no point does or the test has no curve.
+std::string misfit_range(const FitReport& baseline, const std::string& test, double limit) {
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (const FitCurve& c : baseline.fit) {
+    if (c.label != test) continue;
+    for (size_t i = 0; i < c.extension_mm.size(); ++i)
+      if (c.measured_N[i] != 0 && std::abs(c.simulated_N[i] - c.measured_N[i]) > limit * std::abs(c.measured_N[i])) {
+        lo = std::min(lo, c.extension_mm[i]);
+        hi = std::max(hi, c.extension_mm[i]);
+      }
+  }
+  return lo <= hi ? fmt::format(", {:g}–{:g} mm", lo, hi) : "";
+}
+
+// With nothing named: the test whose error is furthest above its floor, when it is more than
+// `ratio` times the floor, as "unexplained at <test, range>".
+std::string unexplained(const DiscoverResult& result, double ratio) {
+  const DiscoverGap* worst = nullptr;
+  for (const DiscoverGap& g : result.gap)
+    if (std::isfinite(g.floor) && g.before > ratio * g.floor && (!worst || g.before / g.floor > worst->before / worst->floor))
+      worst = &g;
+  if (!worst) return "";
+  return "unexplained at " + worst->test + misfit_range(result.baseline, worst->test, ratio * worst->floor);
+}
+
+// The dataset with each fit test's runs of index parity `parity` (a test with one run keeps it:
+// it is in both folds, so never held out).
+Dataset specimen_fold(const Dataset& dataset, size_t parity) {
+  Dataset fold = dataset;
+  for (TensileTest& test : fold.tensile) {
+    if (test.role != TestRole::Fit || test.runs.size() < 2) continue;
+    std::vector<TensileRun> kept;
+    for (size_t i = parity; i < test.runs.size(); i += 2) kept.push_back(test.runs[i]);
+    test.runs = std::move(kept);
+  }
+  return fold;
+}
+
+bool has_repeats(const Dataset& dataset) {
+  for (const TensileTest& test : dataset.tensile)
+    if (test.role == TestRole::Fit && test.runs.size() >= 2) return true;
+  return false;
+}
+
+// `fit` (with `effect` configured) evaluating the parameters in `params_path` on a dataset:
+// start-from them, then the protocol's effect-fit stage of `effect` with nothing fitted.
+Options evaluation_config(const Options& fit, const std::string& effect, const std::string& params_path,
+                          const Registry& registry) {
+  Options config = fit;
+  const RegistryCategory* stages = registry.find_category(registry_category::kStage);
+  ComponentChoice start{registry_category::kStage, "start-from", default_options(stages->at("start-from").options, &registry)};
+  start.options.set("params", params_path);
+  std::vector<ComponentChoice> protocol = {start};
+  for (const ComponentChoice& stage : fit.get_component_list("protocol"))
+    if (stage.name == kEffectFitStage && stage.options.get_string("effect") == effect) protocol.push_back(stage);
+  protocol.back().options.set("fit", false);
+  config.set("protocol", protocol);
+  return config;
+}
+
+// A private folder for the folds' parameter files, removed with the object.
+class ScratchFolder {
+ public:
+  ScratchFolder() {
+    std::string pattern = (fs::temp_directory_path() / "twill-discover-XXXXXX").string();
+    if (!::mkdtemp(pattern.data())) throw std::runtime_error("cannot create a temporary folder in " + fs::temp_directory_path().string());
+    path_ = pattern;
+  }
+  ~ScratchFolder() {
+    std::error_code ignored;
+    fs::remove_all(path_, ignored);
+  }
+  ScratchFolder(const ScratchFolder&) = delete;
+  ScratchFolder& operator=(const ScratchFolder&) = delete;
+  const fs::path& path() const { return path_; }
+
+ private:
+  fs::path path_;
+};
+
+// The held-out runs' error of `params` (with `effect` as it holds it, neutral when it holds
+// none) on `held_out`.
+double held_out_error(const Dataset& held_out, const Options& fit, const std::string& effect, MaterialParameters params,
+                      const fs::path& file, const Registry& registry) {
+  if (std::none_of(params.effects.begin(), params.effects.end(), [&](const ComponentChoice& c) { return c.name == effect; })) {
+    const RegistryCategory* effects = registry.find_category(registry_category::kEffect);
+    params.effects.push_back({registry_category::kEffect, effect, default_options(effects->at(effect).options, &registry)});
+  }
+  write_params_file(params, file.string());
+  const FitReport r = run_fit(held_out, evaluation_config(with_effects(fit, {effect}, registry), effect, file.string(), registry),
+                              registry, {});
+  const FitEffect* e = record_of(r.effects, effect);
+  if (!e) throw std::logic_error("the held-out evaluation of " + effect + " ran no effect-fit stage");
+  return e->error_with;
+}
+
+DiscoverHeldOut held_out_check(const Dataset& dataset, const Options& fit, const std::string& effect,
+                               const Registry& registry, const FitProgress& progress) {
+  DiscoverHeldOut out;
+  if (!has_repeats(dataset)) {
+    out.note = "every fit test has one specimen (needs two or more per test)";
+    return out;
+  }
+  const ScratchFolder scratch;
+  for (size_t parity : {0u, 1u}) {
+    const Dataset fitted = specimen_fold(dataset, parity), held = specimen_fold(dataset, 1 - parity);
+    const std::string fold = fmt::format("{} fold {}", effect, parity + 1);
+    if (progress) progress(0, "held-out check " + fold + ": fitting without and with it, evaluating on the other fold");
+    const FitReport without = run_fit(fitted, with_effects(fit, {}, registry), registry, prefixed(progress, fold + " without"));
+    const FitReport with = run_fit(fitted, with_effects(fit, {effect}, registry), registry, prefixed(progress, fold + " with"));
+    out.without += 0.5 * held_out_error(held, fit, effect, without.parameters, scratch.path() / "without.yaml", registry);
+    out.with += 0.5 * held_out_error(held, fit, effect, with.parameters, scratch.path() / "with.yaml", registry);
+  }
+  out.evaluated = true;
+  return out;
+}
+
+}  // namespace
+
+DiscoverResult run_discover(const Dataset& dataset, const Options& config, const Registry& registry,
+                            const FitProgress& progress) {
+  const auto t0 = Clock::now();
+  const DiscoverOptions options = read_discover_options(config);
+  DiscoverResult result;
+  const Options fit = baseline_config(config, registry, &result.notes);
+  result.candidates = audit_candidates(dataset, fit, options, registry);
+  for (const DiscoverCandidate& c : result.candidates)
+    if (progress && !c.status.empty()) progress(0, "candidate " + c.name + ": " + c.status + " (" + c.reason + ")");
+  if (progress) progress(0, "baseline: the protocol without effects, every repeat with its specimen scale");
+  result.baseline = run_fit(dataset, fit, registry, prefixed(progress, "baseline"));
+  std::map<std::string, FitReport> reports;
+  fit_candidates(dataset, fit, registry, progress, &result, &reports);
+  judge_candidates(options, nullptr, &result);
+  if (options.held_out)
+    for (DiscoverCandidate& c : result.candidates)
+      if (c.status == "named") c.held_out = held_out_check(dataset, fit, c.name, registry, progress);
+  judge_candidates(options, nullptr, &result);
+  const std::vector<std::string> passing = with_status(result, "named");
+  if (passing.size() >= 2) {
+    if (progress) progress(0, "refit: " + yaml_list(passing) + " jointly");
+    result.refit = run_fit(dataset, with_effects(fit, passing, registry), registry, prefixed(progress, "refit"));
+    judge_candidates(options, &result.refit->effects, &result);
+  } else if (passing.size() == 1) {
+    result.refit = reports.at(passing.front());
+  }
+  measure_gap(result, floors_by_test(result.candidates), &result.gap, &result.gap_rows);
+  if (result.verdict == "none") {
+    const std::string misfit = unexplained(result, options.unexplained_ratio);
+    if (!misfit.empty()) result.verdict = misfit;
+  }
+  if (with_status(result, "untestable").size() + with_status(result, "failed").size() == result.candidates.size())
+    result.notes.push_back("no candidate could be tested: the verdict rests on the baseline alone");
+  result.time_s = std::chrono::duration<double>(Clock::now() - t0).count();
+  return result;
+}
+
+namespace {
+
+json number(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+
+json candidate_json(const DiscoverCandidate& c) {
+  json j = {{"name", c.name}, {"status", c.status}, {"reason", c.reason}};
+  if (!c.effect) return j;
+  const FitEffect& e = *c.effect;
+  j["score"] = number(e.score);
+  j["dof"] = e.score_dof;
+  j["p_value"] = std::isfinite(e.score) ? json(e.score_p_value) : json(nullptr);
+  j["p_value_iid"] = std::isfinite(e.score) ? json(e.score_p_value_iid) : json(nullptr);
+  j["noise_correlation"] = std::isfinite(e.score) ? json(e.score_noise_correlation) : json(nullptr);
+  j["error_without"] = e.error_without;
+  j["error_with"] = e.error_with;
+  j["resolution"] = e.resolution;
+  if (c.held_out.evaluated)
+    j["held_out"] = {{"error_without", c.held_out.without}, {"error_with", c.held_out.with}};
+  else if (!c.held_out.note.empty())
+    j["held_out"] = {{"not_evaluated", c.held_out.note}};
+  j["parameters"] = json::array();
+  for (const FitEffectParameter& p : e.parameters)
+    j["parameters"].push_back({{"name", p.name}, {"value", p.value}, {"unit", p.unit}, {"lower", p.lower},
+                               {"upper", p.upper}});
+  return j;
+}
+
+json discover_json(const DiscoverResult& r, const Options& config) {
+  json gap = json::object();
+  for (const DiscoverGap& g : r.gap) gap[g.test] = {{"before", g.before}, {"after", g.after}, {"floor", number(g.floor)}};
+  json candidates = json::array();
+  for (const DiscoverCandidate& c : r.candidates) candidates.push_back(candidate_json(c));
+  return {{"dataset", r.baseline.dataset},
+          {"verdict", r.verdict},
+          {"named", r.named},
+          {"gap", gap},
+          {"gap_rows", r.gap_rows},
+          {"candidates", candidates},
+          {"alpha", config.get_section(kSection).get_double("alpha")},
+          {"baseline_resolution", r.baseline.finest_resolution},
+          {"notes", r.notes},
+          {"time_s", r.time_s}};
+}
+
+std::string cell(double v) { return std::isfinite(v) ? fmt::format("{:.2f} %", 100 * v) : "—"; }
+
+std::string discover_markdown(const DiscoverResult& r) {
+  std::ostringstream md;
+  md << "# twill discover: " << r.baseline.dataset << "\n\n**Verdict: " << r.verdict << "**"
+     << (r.named.empty() ? "" : " — named: " + yaml_list(r.named)) << "\n\n";
+  md << "Baseline: the protocol without effects, every repeat with its specimen scale, finest resolution "
+     << r.baseline.finest_resolution << " (docs/discover.md). Took " << fmt::format("{:.0f} s", r.time_s) << ".\n\n";
+  md << "## Gap per test\n\nAverage relative error (model.md §8) on " << r.gap_rows
+     << ": the paper's model (before), with the named effects (after), and the noise floor (the mean |noise| the "
+        "score test's calibration fitted, core/score_test.hpp).\n\n| test | before | after | floor |\n|---|---|---|---|\n";
+  for (const DiscoverGap& g : r.gap)
+    md << "| " << g.test << " | " << cell(g.before) << " | " << cell(g.after) << " | " << cell(g.floor) << " |\n";
+  md << "\n## Candidates\n\n| effect | status | score T (d) | p (calibrated) | p (iid) | error without → with | why "
+        "|\n|---|---|---|---|---|---|---|\n";
+  for (const DiscoverCandidate& c : r.candidates) {
+    const bool scored = c.effect && std::isfinite(c.effect->score);
+    md << fmt::format("| {} | {} | {} | {} | {} | {} | {} |\n", c.name, c.status,
+                      scored ? fmt::format("{:.4g} ({})", c.effect->score, c.effect->score_dof) : "—",
+                      scored ? fmt::format("{:.2g}", c.effect->score_p_value) : "—",
+                      scored ? fmt::format("{:.2g}", c.effect->score_p_value_iid) : "—",
+                      c.effect ? cell(c.effect->error_without) + " → " + cell(c.effect->error_with) : "—", c.reason);
+  }
+  md << "\n| effect | parameter | value | unit |\n|---|---|---|---|\n";
+  for (const DiscoverCandidate& c : r.candidates)
+    if (c.effect)
+      for (const FitEffectParameter& p : c.effect->parameters)
+        md << fmt::format("| {} | {} | {:.5g} | {} |\n", c.name, p.name, p.value, p.unit);
+  if (!r.notes.empty()) {
+    md << "\n## Notes\n\n";
+    for (const std::string& n : r.notes) md << "- " << n << "\n";
+  }
+  md << "\n![residuals before and after](residuals.png)\n";
+  return md.str();
+}
+
+void write_text(const fs::path& path, const std::string& text) {
+  std::ofstream out(path);
+  out << text;
+  if (!out) throw std::runtime_error("cannot write " + path.string());
+}
+
+}  // namespace
+
+const std::vector<std::string>& discover_output_file_names() {
+  static const std::vector<std::string> names = {"discover.json",        "discover.md",        "params.yaml",
+                                                 "config.yaml",          "baseline-report.json", "refit-report.json",
+                                                 "residuals.png"};
+  return names;
+}
+
+void write_discover_outputs(const DiscoverResult& result, const Options& config, const std::string& dir) {
+  const fs::path d(dir);
+  fs::create_directories(d);
+  write_text(d / "discover.json",
+             discover_json(result, config).dump(2, ' ', false, json::error_handler_t::replace) + "\n");
+  write_text(d / "discover.md", discover_markdown(result));
+  write_params_file(result.refit ? result.refit->parameters : result.baseline.parameters, (d / "params.yaml").string());
+  write_config_file(config, (d / "config.yaml").string());
+  const Options fit = discover_fit_config(config);
+  write_text(d / "baseline-report.json", fit_report_json_text(result.baseline, fit));
+  if (result.refit) write_text(d / "refit-report.json", fit_report_json_text(*result.refit, fit));
+}
+
+}  // namespace twill

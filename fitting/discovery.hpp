@@ -1,0 +1,103 @@
+#pragma once
+// `twill discover` (issue #16; docs/discover.md, docs/discover-design.md): where the paper's
+// model and a dataset disagree, which registered effect explains it, and the gap before and
+// after adding it — or `none`, `tied: A|B (needs: …)` or `unexplained at <test, range>`.
+//
+// The workflow, each step a fit of the protocol (fitting/fit_protocol.hpp) with a different
+// `effects` list:
+//   1. audit: every candidate effect's data predicate (Effect::missing_data) and an effect-fit
+//      stage for it in the protocol; without either it is `untestable (needs: …)`;
+//   2. baseline: the protocol with no effect, every repeat fitted with its specimen scale
+//      (`repeats.rule: all`, `repeats.scale: per-run`: the scatter between specimens is the
+//      noise floor, docs/discover-design.md §1);
+//   3. per testable candidate: the protocol with that effect on; its effect-fit stage gives the
+//      error without and with it, per test, the calibrated score test at its neutral values
+//      and the noise floor (core/score_test.hpp);
+//   4. judge (judge_candidates below): a candidate passes when its calibrated p-value is below
+//      α / (candidates tested) and the misfit in excess of the floor shrinks by at least
+//      `min_excess_shrink`; several passing are refitted jointly, and one whose score is no
+//      longer significant after the others is `tied` with the one that explained it.
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/config.hpp"
+#include "core/dataset.hpp"
+#include "core/registry.hpp"
+#include "fitting/fit_protocol.hpp"
+
+namespace twill {
+
+/// The `discover` section of the config (discover_config_schema()).
+struct DiscoverOptions {
+  std::vector<std::string> candidates;  ///< registered effect names; empty: every registered effect
+  double alpha = 0.05;                  ///< family-wise level of the score tests (Bonferroni)
+  double min_excess_shrink = 3;         ///< (before − floor) / (after − floor) a named effect reaches
+  double unexplained_ratio = 2;         ///< a test whose baseline error exceeds this × its floor is a misfit
+  bool held_out = true;                 ///< confirm on held-out specimens (two folds) before naming
+};
+
+/// The held-out check of a candidate (run_discover): two folds of the specimens (each fit test's
+/// runs of even and of odd index), each fitted without and with the effect and evaluated on the
+/// other fold's runs; the mean over the folds of the held-out runs' error.
+struct DiscoverHeldOut {
+  bool evaluated = false;
+  double without = 0, with = 0;
+  std::string note;  ///< why it was not evaluated, when not
+};
+
+/// One candidate effect: what became of it and why.
+struct DiscoverCandidate {
+  std::string name;
+  std::string status;  ///< "named", "rejected", "untestable", "tied", "failed"
+  std::string reason;  ///< in words: what it needs, which criterion it failed, the error
+  std::optional<FitEffect> effect;  ///< its effect-fit stage's record, when fitted
+  DiscoverHeldOut held_out;          ///< for candidates that passed on the fitted data
+};
+
+/// Per test: the error of the paper's model, of the model with the named effects, and the
+/// noise floor (the mean |noise| the calibration fitted; docs/discover.md).
+struct DiscoverGap {
+  std::string test;
+  double before = 0, after = 0, floor = 0;
+};
+
+struct DiscoverResult {
+  std::vector<std::string> named;
+  std::string verdict;  ///< "named", "none", "tied: A|B (needs: …)", "unexplained at <test, range>"
+  std::vector<DiscoverGap> gap;
+  std::string gap_rows;  ///< which effect-fit stage's rows the gap was measured on
+  std::vector<DiscoverCandidate> candidates;
+  FitReport baseline;
+  std::optional<FitReport> refit;  ///< the fit with the named (or tied) effects
+  std::vector<std::string> notes;
+  double time_s = 0;
+};
+
+/// The fit config's schema plus the `discover` section.
+OptionSchema discover_config_schema();
+DiscoverOptions read_discover_options(const Options& config);
+/// The fit config inside a discover config (every entry but the `discover` section).
+Options discover_fit_config(const Options& config);
+
+/// The candidates' audit (step 1): each registered (or configured) candidate, `untestable` with
+/// what it needs, or with an empty status when it can be fitted.
+std::vector<DiscoverCandidate> audit_candidates(const Dataset& dataset, const Options& fit_config,
+                                                const DiscoverOptions& options, const Registry& registry);
+
+/// Step 4 on candidates whose `effect` is set: statuses, reasons, `named` and the verdict's
+/// kind (the joint refit's records, when several pass, come in `joint`). Pure: no fits.
+void judge_candidates(const DiscoverOptions& options, const std::vector<FitEffect>* joint, DiscoverResult* result);
+
+/// The whole workflow (above). Throws InputError for a config or dataset it cannot use.
+DiscoverResult run_discover(const Dataset& dataset, const Options& config, const Registry& registry,
+                            const FitProgress& progress);
+
+/// discover.json, discover.md, params.yaml (the refit's, else the baseline's), config.yaml and
+/// the baseline's and refit's report.json as baseline-report.json / refit-report.json.
+void write_discover_outputs(const DiscoverResult& result, const Options& config, const std::string& dir);
+
+/// The file names `twill discover` writes (its output folder's kind).
+const std::vector<std::string>& discover_output_file_names();
+
+}  // namespace twill

@@ -1,0 +1,96 @@
+// The decisions of `twill discover` (fitting/discovery.hpp, judge_candidates) on effect-fit
+// records made up to sit on either side of each criterion: the calibrated p-value against
+// α / (candidates tested), the excess misfit's shrink against min_excess_shrink, an effect
+// without a score test, and two effects that explain the same misfit in the joint refit.
+#include <gtest/gtest.h>
+
+#include <limits>
+
+#include "fitting/discovery.hpp"
+
+namespace twill {
+namespace {
+
+// A candidate fitted on warp and weft (one run each, the same floor), error before → after.
+DiscoverCandidate fitted(const std::string& name, double p, double before, double after, double floor = 0.01) {
+  FitEffect e;
+  e.effect = name;
+  e.error_without = before;
+  e.error_with = after;
+  e.score = std::isnan(p) ? p : 50.0;
+  e.score_dof = 1;
+  e.score_p_value = p;
+  e.runs = 2;
+  e.tests = {{"warp", 1, before, after, floor}, {"weft", 1, before, after, floor}};
+  return {name, "", "", e, {}};
+}
+
+DiscoverResult judged(std::vector<DiscoverCandidate> candidates, const std::vector<FitEffect>* joint = nullptr) {
+  DiscoverResult r;
+  r.candidates = std::move(candidates);
+  judge_candidates(DiscoverOptions{}, joint, &r);
+  return r;
+}
+
+TEST(DiscoverJudge, NamesASignificantCandidateWhoseExcessShrinks) {
+  const DiscoverResult r = judged({fitted("hysteresis", 1e-3, 0.08, 0.012)});  // excess 7 % → 0.2 %
+  EXPECT_EQ(r.verdict, "named");
+  EXPECT_EQ(r.named, std::vector<std::string>{"hysteresis"});
+}
+
+TEST(DiscoverJudge, RejectsWhatIsNotSignificantOrDoesNotShrinkEnough) {
+  // Significant, but the excess over the floor only halves (2 % → 1 %).
+  EXPECT_EQ(judged({fitted("hysteresis", 1e-3, 0.03, 0.02)}).candidates[0].status, "rejected");
+  // A large gain that the calibrated test does not back (p 0.2).
+  EXPECT_EQ(judged({fitted("hysteresis", 0.2, 0.08, 0.012)}).verdict, "none");
+  // No excess at all: the baseline is at the floor.
+  EXPECT_EQ(judged({fitted("hysteresis", 1e-3, 0.01, 0.009)}).candidates[0].status, "rejected");
+}
+
+TEST(DiscoverJudge, NamesOnlyWhatHoldsOnHeldOutSpecimens) {
+  DiscoverCandidate c = fitted("hysteresis", 1e-3, 0.08, 0.012);
+  c.held_out = {true, 0.07, 0.02, ""};
+  EXPECT_EQ(judged({c}).verdict, "named");
+  c.held_out = {true, 0.07, 0.071, ""};  // better where fitted, worse where not
+  const DiscoverResult r = judged({c});
+  EXPECT_EQ(r.verdict, "none");
+  EXPECT_NE(r.candidates[0].reason.find("does not hold on specimens"), std::string::npos) << r.candidates[0].reason;
+  c.held_out = {false, 0, 0, "every fit test has one specimen"};  // not possible: named, and said
+  const DiscoverResult one = judged({c});
+  EXPECT_EQ(one.verdict, "named");
+  EXPECT_NE(one.candidates[0].reason.find("held-out check not made"), std::string::npos);
+}
+
+TEST(DiscoverJudge, TestsEachCandidateAtAlphaOverTheNumberTested) {
+  // p 0.03 < α = 0.05 alone, but not < α/2 beside a second candidate tested.
+  EXPECT_EQ(judged({fitted("hysteresis", 0.03, 0.08, 0.012)}).verdict, "named");
+  const DiscoverResult two = judged({fitted("hysteresis", 0.03, 0.08, 0.012), fitted("poisson", 0.9, 0.08, 0.08)});
+  EXPECT_EQ(two.verdict, "none");
+  EXPECT_NE(two.candidates[0].reason.find("α/n = 0.025"), std::string::npos) << two.candidates[0].reason;
+}
+
+TEST(DiscoverJudge, AnEffectWithoutAScoreTestIsTiedWithTheSpecimenScale) {
+  const DiscoverResult r = judged({fitted("misalignment", std::numeric_limits<double>::quiet_NaN(), 0.06, 0.012)});
+  EXPECT_EQ(r.candidates[0].status, "tied");
+  EXPECT_TRUE(r.named.empty());
+  EXPECT_EQ(r.verdict.rfind("tied: misalignment|specimen scale (needs: lateral strain", 0), 0u) << r.verdict;
+}
+
+TEST(DiscoverJudge, TwoEffectsExplainingTheSameMisfitAreTied) {
+  std::vector<DiscoverCandidate> both = {fitted("hysteresis", 1e-4, 0.08, 0.012), fitted("rate-dependence", 1e-4, 0.08, 0.013)};
+  EXPECT_EQ(judged(both).named.size(), 2u);  // alone, each passes
+  // In the joint refit rate-dependence comes after hysteresis and adds nothing (p 0.4): tied.
+  std::vector<FitEffect> joint = {*both[0].effect, *both[1].effect};
+  joint[1].score_p_value = 0.4;
+  const DiscoverResult r = judged(both, &joint);
+  EXPECT_TRUE(r.named.empty());
+  EXPECT_EQ(r.verdict.rfind("tied: hysteresis|rate-dependence (needs: runs of one test at two or more crosshead speeds", 0),
+            0u)
+      << r.verdict;
+  // Still significant after the other: both named.
+  joint[1].score_p_value = 1e-4;
+  EXPECT_EQ(judged(both, &joint).named.size(), 2u);
+}
+
+}  // namespace
+}  // namespace twill
