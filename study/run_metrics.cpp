@@ -123,6 +123,25 @@ std::vector<std::pair<std::string, double>> fit_metrics(const nlohmann::json& re
   return out;
 }
 
+std::vector<std::pair<std::string, double>> discover_metrics(const nlohmann::json& result) {
+  static const std::vector<std::string> kVerdicts = {"named", "none", "tied", "unexplained"};
+  static const std::vector<std::string> kStatuses = {"named", "rejected", "untestable", "tied", "failed"};
+  Metrics out;
+  const std::string verdict = result.at("verdict").get<std::string>();
+  for (const std::string& v : kVerdicts) out.emplace_back("verdict." + v, verdict.rfind(v, 0) == 0 ? 1.0 : 0.0);
+  out.emplace_back("count.named", static_cast<double>(result.at("named").size()));
+  for (const json& c : result.at("candidates")) {
+    const std::string name = "candidate." + c.at("name").get<std::string>();
+    for (const std::string& s : kStatuses) out.emplace_back(name + "." + s, c.at("status") == s ? 1.0 : 0.0);
+    if (c.contains("p_value") && !c.at("p_value").is_null()) out.emplace_back(name + ".p_value", c.at("p_value").get<double>());
+  }
+  for (const auto& [test, g] : result.at("gap").items())
+    for (const char* k : {"before", "after", "floor"})
+      if (!g.at(k).is_null()) out.emplace_back("gap." + test + "." + k, g.at(k).get<double>());
+  out.emplace_back("time.total", result.at("time_s").get<double>());
+  return out;
+}
+
 std::vector<std::pair<std::string, double>> simulate_metrics(const nlohmann::json& result) {
   Metrics out;
   if (result.contains("reference")) {

@@ -46,4 +46,16 @@ std::vector<std::pair<std::string, double>> fit_metrics(const nlohmann::json& re
 ///   time.total                               the simulation's wall time (s)
 std::vector<std::pair<std::string, double>> simulate_metrics(const nlohmann::json& result);
 
+/// What a study records of a `twill discover` run (its discover.json; docs/discover.md), so that
+/// `twill report` averages over seeds are rates (papers/discovery):
+///   verdict.named, verdict.none, verdict.tied,   1 for the run's verdict, 0 for the others
+///   verdict.unexplained
+///   count.named                                  effects named
+///   candidate.<name>.<status>                    1 where the candidate has that status
+///                                                (named, rejected, untestable, tied, failed), else 0
+///   candidate.<name>.p_value                     its calibrated score test's (where evaluated)
+///   gap.<test>.before|after|floor                the average relative errors of the gap table
+///   time.total                                   the run's wall time (s)
+std::vector<std::pair<std::string, double>> discover_metrics(const nlohmann::json& result);
+
 }  // namespace twill

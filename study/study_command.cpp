@@ -7,6 +7,7 @@
 
 #include "core/dataset.hpp"
 #include "experiments/simulate_config.hpp"
+#include "fitting/discovery.hpp"
 #include "fitting/fit_config.hpp"
 #include "fitting/fit_input_checks.hpp"
 #include "fitting/fit_protocol.hpp"
@@ -37,6 +38,18 @@ std::vector<std::string> fit_child_args(const std::string& dataset, const fs::pa
   return args;
 }
 
+void check_discover_run(const std::string& dataset, const Options& config, const Registry& registry,
+                        const ConfigKeyLocator& locate) {
+  check_fit_run(dataset, discover_fit_config(config), registry, locate);
+}
+
+std::vector<std::string> discover_child_args(const std::string& dataset, const fs::path& run, bool plots) {
+  std::vector<std::string> args = {"discover", dataset, "-c", (run / "config.yaml").string(), "-o",
+                                   (run / "discover").string(), "--quiet"};
+  if (!plots) args.push_back("--no-plots");
+  return args;
+}
+
 std::vector<std::string> simulate_child_args(const std::string& params, const fs::path& run, bool) {
   return {"simulate", "--params", params, "-c", (run / "config.yaml").string(), "--json",
           "--out", (run / "simulate.json").string()};
@@ -56,6 +69,10 @@ const std::vector<StudyCommand>& study_commands() {
        &simulate_child_args, [](const fs::path& run) { return run / "simulate.json"; },
        [](const fs::path& run) { return run / "simulate.json"; },
        [](const fs::path& result) { return simulate_metrics(read_json(result)); }},
+      {"discover", "datasets", "dataset", true, &discover_config_schema, &check_discover_run, &discover_child_args,
+       [](const fs::path& run) { return run / "discover"; },
+       [](const fs::path& run) { return run / "discover" / "discover.json"; },
+       [](const fs::path& result) { return discover_metrics(read_json(result)); }},
   };
   return commands;
 }

@@ -8,6 +8,8 @@
 //                                     metrics from RUN/fit/report.json (study/run_metrics.hpp)
 //   simulate  params: [params.yaml]   child `twill simulate --params P -c config.yaml --json
 //                                     --out RUN/simulate.json`, metrics from that file
+//   discover  datasets: [folders]     child `twill discover DATASET -c config.yaml -o RUN/discover`,
+//                                     metrics from RUN/discover/discover.json (discover_metrics)
 #include <filesystem>
 #include <string>
 #include <utility>
@@ -21,7 +23,7 @@ namespace twill {
 class Registry;
 
 struct StudyCommand {
-  std::string name;       ///< "fit", "simulate"
+  std::string name;       ///< "fit", "simulate", "discover"
   std::string input_key;  ///< the study file's list of inputs: "datasets", "params"
   std::string input_coordinate;  ///< a run's first coordinate, e.g. dataset=canvas: "dataset", "params"
   bool input_is_folder;   ///< datasets are folders, params files

@@ -222,6 +222,34 @@ TEST_F(StudyTest, SimulateStudyRecordsReferenceErrorsPerRun) {
             std::string::npos);
 }
 
+// `command: discover` (study/study_command.hpp): a discover config's keys (the fit's and the
+// `discover:` section) swept like any, each run a `twill discover` whose verdict and candidates
+// become 0/1 metrics — what papers/discovery averages over seeds into rates.
+TEST_F(StudyTest, DiscoverStudyRecordsVerdictsAndCandidatesAsMetrics) {
+  const std::string head = "command: discover\ndatasets: [" + std::string(TWILL_SOURCE_DIR) + "/examples/canvas]\n";
+  const std::string path =
+      write("study.yaml", head + kTinySet + "vary:\n  discover.candidates: [\"[hysteresis]\", \"[poisson]\"]\n");
+  const Study study = read_study_file(path, testing::program_registry());
+  ASSERT_EQ(study.runs.size(), 2u);
+  const SweepSummary summary = run_sweep(study, options(TWILL_BINARY, 2), kSilent);
+  EXPECT_EQ(summary.done, 2);
+  ResultsDb db(folder_ / "out" / "results.sqlite");
+  for (const StudyRun& r : study.runs) {
+    std::map<std::string, double> m;
+    for (const auto& row : db.query("SELECT name, value FROM metrics WHERE hash = '" + r.hash + "'"))
+      m[row[0]] = std::stod(row[1]);
+    // The canvas example has neither unloading rows nor lateral strains: untestable, nothing named.
+    EXPECT_EQ(m["count.named"], 0.0) << describe_run(r);
+    EXPECT_EQ(m["candidate.hysteresis.untestable"] + m["candidate.poisson.untestable"], 1.0) << describe_run(r);
+    EXPECT_EQ(m["verdict.named"], 0.0);
+    EXPECT_TRUE(m.count("time.total"));
+    EXPECT_TRUE(fs::exists(folder_ / "out" / "runs" / r.hash / "discover" / "discover.json"));
+  }
+  // A discover key is validated like any: a misspelt one is located in the study file.
+  EXPECT_NE(error_of(write("study.yaml", head + "set: {discover.alpah: 0.1}\n")).find("study.yaml:3"),
+            std::string::npos);
+}
+
 TEST_F(StudyTest, SweepRecordsEveryRunAndSkipsWhatIsDone) {
   const Study s = read_study_file(study(kTinySet + "vary:\n  optimizer.name: [gauss-newton, bfgs]\n"),
                                   testing::program_registry());
