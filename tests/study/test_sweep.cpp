@@ -148,7 +148,7 @@ TEST_F(StudyTest, EveryMistakeIsAnErrorWithTheStudyFileAndLine) {
       {"vary: {optimizer.name: [bfgs]}\naxes: {optimizer.name: {a: {data.max_points: 8}}}\n", "both a vary key"},
       {"axes:\n  budget:\n    small: {optimizer.max_iteration: 5}\n", "study.yaml:4"},  // misspelt key in an axis
       {"vary:\n  optimizer.name: [bfgs, bfgs]\n", "same config"},                // duplicate runs
-      {"command: discover\n", "unknown command"},
+      {"command: discovre\n", "unknown command"},
       // A simulate study takes params files, not datasets.
       {"command: simulate\n", "study.yaml:1"},
       {"set: {resolution.levels: 9}\n", "study.yaml:2"},
