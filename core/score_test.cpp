@@ -193,7 +193,6 @@ void calibrate(const ScoreBasis& basis, const Statistic& observed, const std::ve
   for (const Eigen::VectorXd& p : predictions) {
     runs.push_back(fit_run_noise(observed.noise, row, p.size()));
     correlation += runs.back().phi / static_cast<double>(predictions.size());
-    out->run_noise.push_back(p.size() > 0 ? observed.noise.segment(row, p.size()).cwiseAbs().mean() : 0.0);
     row += p.size();
   }
   if (row != observed.noise.size()) throw std::logic_error("score_test: the predictions do not cover the residuals");
@@ -247,6 +246,11 @@ ScoreTest score_test(FitObjective& objective, const Eigen::VectorXd& x, int n_ba
   const Statistic observed = statistic_of(basis, r);
   out.sigma2 = observed.sigma2;
   out.statistic = observed.t;
+  Eigen::Index row = 0;
+  for (const Eigen::VectorXd& p : objective.last_predictions()) {
+    out.run_noise.push_back(p.size() > 0 ? observed.noise.segment(row, p.size()).cwiseAbs().mean() : 0.0);
+    row += p.size();
+  }
   if (out.dof == 0) return out;
   out.p_value_iid = f_upper_tail(out.statistic / out.dof, out.dof, static_cast<int>(basis.remaining));
   if (calibration.replicates > 0) calibrate(basis, observed, objective.last_predictions(), calibration, &out);

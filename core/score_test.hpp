@@ -59,7 +59,8 @@ struct ScoreTest {
   double noise_correlation = 0;  ///< the runs' mean fitted lag-one correlation φ of the noise
   /// Per predictor (run): the mean |u| over its rows, u the residual neither the baseline nor
   /// the candidate explains — in relative-residual units, the average relative error the
-  /// run's noise alone makes (`twill discover`'s floor). Empty when not evaluated.
+  /// run's noise alone makes (`twill discover`'s floor). Empty when no residual degree of
+  /// freedom is left; filled without calibration too (ScoreCalibration::replicates = 0).
   std::vector<double> run_noise;
   Eigen::MatrixXd signature;  ///< P J_e: m × (candidate's unknowns), residual units
 };
