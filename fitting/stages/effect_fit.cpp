@@ -235,11 +235,21 @@ class EffectFit final : public FitStage {
                                  it.value, it.gradient_norm));
     });
     std::unique_ptr<Optimizer> optimizer = context.make_optimizer();
-    const OptimizerResult r = optimizer->minimize(objective, map.initial_x());
-    if (!std::isfinite(objective.evaluate(r.x, nullptr)))
+    const Eigen::VectorXd start = map.initial_x();
+    const double at_start = objective.evaluate(start, nullptr);
+    const OptimizerResult r = optimizer->minimize(objective, start);
+    const double at_end = objective.evaluate(r.x, nullptr);
+    if (!std::isfinite(at_end))
       throw std::runtime_error("effect-fit " + options_.effect + ": the optimiser's final point could not be evaluated: " +
                                objective.last_failure());
-    context.params = map.parameters(r.x);
+    Eigen::VectorXd x = r.x;
+    if (at_end > at_start) {  // measured: a rate fit from neutral ended at 26.6 % from 9.4 % (docs/discover.md §4)
+      context.note(fmt::format("effect {}: the optimiser ended above its start (ε {:.4e} > {:.4e}, {}): the start kept",
+                               options_.effect, at_end, at_start, r.message));
+      x = start;
+      objective.evaluate(x, nullptr);
+    }
+    context.params = map.parameters(x);
     context.keep_scales(force_runs, objective.scales());
     const std::vector<double> errors = run_errors(objective, predictors.size());
     context.record_stage("effect " + options_.effect, resolution, 0, mean(errors), *optimizer, r, objective, t);
