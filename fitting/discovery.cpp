@@ -321,7 +321,7 @@ std::vector<std::string> with_status(const DiscoverResult& result, const std::st
 // The gap per test: from the refit's effect-fit records (before: the first record holding the
 // test, after: the last), else from the record of the candidate fitted on the most points.
 void measure_gap(const DiscoverResult& result, const std::map<std::string, double>& floors,
-                 std::vector<DiscoverGap>* gap, std::string* rows) {
+                 std::vector<DiscoverGap>* gap, std::string* rows, std::vector<FitEffectCurve>* curves) {
   std::vector<const FitEffect*> records;
   if (result.refit)
     for (const FitEffect& e : result.refit->effects) records.push_back(&e);
@@ -335,6 +335,13 @@ void measure_gap(const DiscoverResult& result, const std::map<std::string, doubl
   } else {
     *rows = "the refit's effect-fit stages (" + result.refit->effects.front().effect + " … " +
             result.refit->effects.back().effect + ")";
+  }
+  *curves = records.front()->curves;
+  for (FitEffectCurve& c : *curves) {
+    c.with_N = c.without_N;
+    if (!result.refit) continue;
+    for (const FitEffectCurve& last : records.back()->curves)
+      if (last.run == c.run && last.test == c.test && last.with_N.size() == c.without_N.size()) c.with_N = last.with_N;
   }
   for (const FitEffect* e : records)
     for (const FitEffectTest& t : e->tests) {
@@ -495,7 +502,7 @@ DiscoverResult run_discover(const Dataset& dataset, const Options& config, const
   } else if (passing.size() == 1) {
     result.refit = reports.at(passing.front());
   }
-  measure_gap(result, floors_by_test(result.candidates), &result.gap, &result.gap_rows);
+  measure_gap(result, floors_by_test(result.candidates), &result.gap, &result.gap_rows, &result.curves);
   if (result.verdict == "none") {
     const std::string misfit = unexplained(result, options.unexplained_ratio);
     if (!misfit.empty()) result.verdict = misfit;
@@ -543,6 +550,7 @@ json discover_json(const DiscoverResult& r, const Options& config) {
           {"named", r.named},
           {"gap", gap},
           {"gap_rows", r.gap_rows},
+          {"curves", effect_curves_json(r.curves)},
           {"candidates", candidates},
           {"alpha", config.get_section(kSection).get_double("alpha")},
           {"baseline_resolution", r.baseline.finest_resolution},

@@ -67,6 +67,9 @@ struct DiscoverResult {
   std::string verdict;  ///< "named", "none", "tied: A|B (needs: …)", "unexplained at <test, range>"
   std::vector<DiscoverGap> gap;
   std::string gap_rows;  ///< which effect-fit stage's rows the gap was measured on
+  /// Those rows per force run: without = before (the first record's), with = after (the last
+  /// record's; before again when nothing is named). For the residual plots.
+  std::vector<FitEffectCurve> curves;
   std::vector<DiscoverCandidate> candidates;
   FitReport baseline;
   std::optional<FitReport> refit;  ///< the fit with the named (or tied) effects

@@ -29,6 +29,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <nlohmann/json_fwd.hpp>
 #include <vector>
 
 #include "core/config.hpp"
@@ -135,6 +136,14 @@ struct FitEffectTest {
   double noise_floor = std::numeric_limits<double>::quiet_NaN();
 };
 
+/// One force run of an effect-fit stage: its rows in file order (loading, then unloading) and
+/// the forces predicted without and with the effect, each at the run's profiled scale
+/// (`twill discover`'s residual plots).
+struct FitEffectCurve {
+  std::string test, run;
+  std::vector<double> extension_mm, measured_N, without_N, with_N;
+};
+
 /// What an effect-fit stage found (docs/effects.md): the effect's parameters and the error on
 /// its runs without the effect (its neutral values) and with it.
 struct FitEffect {
@@ -154,6 +163,7 @@ struct FitEffect {
   double score_noise_correlation = 0;
   std::vector<FitEffectParameter> parameters;
   std::vector<FitEffectTest> tests;  ///< per test, in the order the stage's runs come
+  std::vector<FitEffectCurve> curves;  ///< per force run (not for angle-offset effects or fit: false)
 
 };
 
@@ -191,6 +201,9 @@ FitReport run_fit(const Dataset& dataset, const Options& config, const Registry&
 /// too. Throws InputError located by `locate`, e.g. at "protocol[3].stage".
 void check_fit_protocol(const Dataset& dataset, const Options& config, const Registry& registry,
                         const ConfigKeyLocator& locate);
+
+/// An effect-fit stage's curves as report.json and discover.json carry them.
+nlohmann::json effect_curves_json(const std::vector<FitEffectCurve>& curves);
 
 /// report.json's text (every curve, the stages, the effects; what write_fit_outputs writes).
 std::string fit_report_json_text(const FitReport& report, const Options& config);

@@ -82,6 +82,18 @@ json strain_range_json(const FitStrainRange& r) {
           {"largest", largest}, {"cutoff", cutoff}, {"share_of_area_beyond_cutoff", share}};
 }
 
+}  // namespace
+
+json effect_curves_json(const std::vector<FitEffectCurve>& curves) {
+  json out = json::array();
+  for (const FitEffectCurve& c : curves)
+    out.push_back({{"test", c.test}, {"run", c.run}, {"extension_mm", c.extension_mm}, {"measured_N", c.measured_N},
+                   {"without_N", c.without_N}, {"with_N", c.with_N}});
+  return out;
+}
+
+namespace {
+
 json report_json(const FitReport& r, const Options& config) {
   json j;
   j["dataset"] = r.dataset;
@@ -160,7 +172,7 @@ json report_json(const FitReport& r, const Options& config) {
                             {"score_dof", e.score_dof}, {"score_p_value_iid", e.score_p_value_iid},
                             {"score_p_value", e.score_p_value},
                             {"score_noise_correlation", e.score_noise_correlation},
-                            {"parameters", parameters}, {"tests", tests}});
+                            {"parameters", parameters}, {"tests", tests}, {"curves", effect_curves_json(e.curves)}});
   }
   json timing = json::object();
   for (const auto& [k, v] : r.timing_s) timing[k] = v;

@@ -3,11 +3,14 @@
 
 Usage: plot_discover.py OUTDIR
 
-Reads OUTDIR/baseline-report.json (the paper's model, every repeat with its specimen scale)
-and, when present, OUTDIR/refit-report.json (the model with the named effects), and writes
-OUTDIR/residuals.png: per fitted test, the relative residual (simulated - measured) / measured
-of every fit run against the extension, before (grey) and after (colour), with the noise floor
-of discover.json as a band.
+Reads OUTDIR/discover.json and writes OUTDIR/residuals.png: per test, the residual
+(simulated - measured) of every run over the rows the gap was measured on (for a path effect
+loading then unloading, so a loop shows as a loop), in % of the run's largest measured force
+(per point the relative residual blows up where an unloading branch nears zero force), against
+the extension, before
+(grey: the paper's model) and after (colour: with the named effects); the title carries the
+test's gap (average relative errors before, after and the noise floor). When nothing is named,
+before only.
 Exit status 3 means matplotlib cannot be imported (twill turns that into a clear message).
 """
 import argparse
@@ -17,20 +20,10 @@ import os
 from plot_common import pyplot_or_exit
 
 
-def residuals_by_test(report):
-    """{test label: [(run, extensions, relative residuals)]} of the report's fit curves."""
-    out = {}
-    for c in report.get("fit", []):
-        pairs = [(e, (s - m) / m) for e, m, s in zip(c["extension_mm"], c["measured_N"], c["simulated_N"]) if m != 0]
-        out.setdefault(c["label"], []).append((c["run"], [p[0] for p in pairs], [p[1] for p in pairs]))
-    return out
-
-
-def load(path):
-    if not os.path.exists(path):
-        return None
-    with open(path, encoding="utf-8") as f:
-        return json.load(f)
+def relative(values, measured):
+    """Residuals in % of the run's largest |measured| force."""
+    largest = max((abs(m) for m in measured), default=0) or 1.0
+    return [100 * (v - m) / largest for v, m in zip(values, measured)]
 
 
 def main() -> int:
@@ -39,24 +32,29 @@ def main() -> int:
     args = parser.parse_args()
     plt = pyplot_or_exit("plot_discover.py")
 
-    discover = load(os.path.join(args.outdir, "discover.json")) or {}
-    before = residuals_by_test(load(os.path.join(args.outdir, "baseline-report.json")) or {})
-    refit = load(os.path.join(args.outdir, "refit-report.json"))
-    after = residuals_by_test(refit) if refit else {}
-    tests = sorted(before)
+    with open(os.path.join(args.outdir, "discover.json"), encoding="utf-8") as f:
+        discover = json.load(f)
+    curves = discover.get("curves", [])
+    named = discover.get("named", [])
+    tests = sorted({c["test"] for c in curves})
     fig, axes = plt.subplots(1, max(len(tests), 1), figsize=(4 * max(len(tests), 1), 3.6), squeeze=False)
     for ax, test in zip(axes[0], tests):
-        floor = (discover.get("gap", {}).get(test) or {}).get("floor")
-        if floor:
-            ax.axhspan(-100 * floor, 100 * floor, color="0.9", label="noise floor")
-        for k, (run, e, r) in enumerate(before[test]):
-            ax.plot(e, [100 * x for x in r], color="0.55", lw=1, label="paper's model" if k == 0 else None)
-        for k, (run, e, r) in enumerate(after.get(test, [])):
-            ax.plot(e, [100 * x for x in r], lw=1.2, label="with " + ", ".join(discover.get("named", [])) if k == 0 else None)
+        gap = discover.get("gap", {}).get(test) or {}
+        runs = [c for c in curves if c["test"] == test]
+        for k, c in enumerate(runs):
+            ax.plot(c["extension_mm"], relative(c["without_N"], c["measured_N"]), color="0.55", lw=1,
+                    label="paper's model" if k == 0 else None)
+        if named:
+            for k, c in enumerate(runs):
+                ax.plot(c["extension_mm"], relative(c["with_N"], c["measured_N"]), lw=1.2,
+                        label="with " + ", ".join(named) if k == 0 else None)
         ax.axhline(0, color="k", lw=0.5)
-        ax.set_title(test)
+        # The gap's errors are averages relative to the measured forces, another scale than the
+        # axis': they go in the title rather than as a band.
+        words = [f"{k} {100 * gap[k]:.2f} %" for k in ("before", "after", "floor") if gap.get(k) is not None]
+        ax.set_title(test + ("\n" + ", ".join(words) if words else ""), fontsize=9)
         ax.set_xlabel("extension [mm]")
-        ax.set_ylabel("relative residual [%]")
+        ax.set_ylabel("residual [% of the run's largest force]")
         ax.legend(fontsize=7)
     fig.suptitle(f"{discover.get('dataset', '')}: {discover.get('verdict', '')}", fontsize=10)
     fig.tight_layout()

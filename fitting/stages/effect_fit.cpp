@@ -147,8 +147,9 @@ class EffectFit final : public FitStage {
     std::vector<const RunData*> force_runs;
     for (const RunData& d : runs_) force_runs.push_back(&d);
     FitEffect result = effect_record(context, level, predictors);
+    std::vector<Eigen::VectorXd> predicted_without, predicted_with;
     const std::vector<double> without =
-        errors_at_neutral(context, *configured, effect_free, map_options, predictors, force_runs);
+        errors_at_neutral(context, *configured, effect_free, map_options, predictors, force_runs, &predicted_without);
     if (!options_.fit) {  // evaluated where it stands: no score (nothing is fitted), no noise floor
       set_errors(tests,
                  free_scale_errors(neutral_params(context, *configured), effect_free, map_options, predictors,
@@ -160,7 +161,9 @@ class EffectFit final : public FitStage {
     }
     const std::vector<double> noise =
         score_at_neutral(context, *configured, free, effect_free.size(), map_options, predictors, force_runs, &result);
-    const std::vector<double> with = fit_free(context, free, map_options, predictors, force_runs, result.resolution, t);
+    const std::vector<double> with =
+        fit_free(context, free, map_options, predictors, force_runs, result.resolution, t, &predicted_with);
+    keep_curves(predictors, predicted_without, predicted_with, &result);
     set_errors(tests, without, with, smaller_noise(noise, noise_at_fit(context, free, effect_free.size(), map_options,
                                                                         predictors, force_runs)),
                &result);
@@ -189,6 +192,16 @@ class EffectFit final : public FitStage {
     result.runs = static_cast<int>(predictors.size());
     for (const auto& p : predictors) result.points += static_cast<int>(p->measured().size());
     return result;
+  }
+
+  // The force runs' rows with their predictions without and with the effect (runs_ are the
+  // first predictors).
+  void keep_curves(const std::vector<std::shared_ptr<Predictor>>& predictors, const std::vector<Eigen::VectorXd>& without,
+                   const std::vector<Eigen::VectorXd>& with, FitEffect* result) const {
+    const auto vec = [](const Eigen::VectorXd& v) { return std::vector<double>(v.data(), v.data() + v.size()); };
+    for (size_t i = 0; i < runs_.size() && i < without.size() && i < with.size(); ++i)
+      result->curves.push_back({runs_[i].test->label, runs_[i].run->name(), runs_[i].extension_mm,
+                                vec(predictors[i]->measured()), vec(without[i]), vec(with[i])});
   }
 
   // The stage's errors: the mean over runs and per test (`tests`: each run's), with each test's
@@ -226,7 +239,7 @@ class EffectFit final : public FitStage {
   std::vector<double> fit_free(FitContext& context, const std::vector<std::string>& free, const ParameterMap::Options& map_options,
                   const std::vector<std::shared_ptr<Predictor>>& predictors,
                   const std::vector<const RunData*>& force_runs, const std::string& resolution,
-                  Clock::time_point t) const {
+                  Clock::time_point t, std::vector<Eigen::VectorXd>* predictions = nullptr) const {
     ParameterMap map(context.params, free, map_options);
     FitObjective objective(map, predictors);
     objective.set_scale_groups(context.scale_groups(force_runs, predictors.size()));
@@ -252,6 +265,7 @@ class EffectFit final : public FitStage {
     context.params = map.parameters(x);
     context.keep_scales(force_runs, objective.scales());
     const std::vector<double> errors = run_errors(objective, predictors.size());
+    if (predictions) *predictions = objective.last_predictions();
     context.record_stage("effect " + options_.effect, resolution, 0, mean(errors), *optimizer, r, objective, t);
     return errors;
   }
@@ -496,11 +510,13 @@ class EffectFit final : public FitStage {
   static std::vector<double> errors_at(const FitContext& context, const MaterialParameters& params,
                          const std::vector<std::string>& free, const ParameterMap::Options& map_options,
                          const std::vector<std::shared_ptr<Predictor>>& predictors,
-                         const std::vector<const RunData*>& force_runs) {
+                         const std::vector<const RunData*>& force_runs,
+                         std::vector<Eigen::VectorXd>* predictions = nullptr) {
     ParameterMap map(params, free, map_options);
     FitObjective objective(map, predictors);
     objective.set_scale_groups(context.scale_groups(force_runs, predictors.size()));
     objective.evaluate(map.initial_x(), nullptr);
+    if (predictions) *predictions = objective.last_predictions();
     return run_errors(objective, predictors.size());
   }
 
@@ -545,8 +561,10 @@ class EffectFit final : public FitStage {
   static std::vector<double> errors_at_neutral(const FitContext& context, const ComponentChoice& configured,
                                  const std::vector<std::string>& free, const ParameterMap::Options& map_options,
                                  const std::vector<std::shared_ptr<Predictor>>& predictors,
-                                 const std::vector<const RunData*>& force_runs) {
-    return errors_at(context, neutral_params(context, configured), free, map_options, predictors, force_runs);
+                                 const std::vector<const RunData*>& force_runs,
+                                 std::vector<Eigen::VectorXd>* predictions = nullptr) {
+    return errors_at(context, neutral_params(context, configured), free, map_options, predictors, force_runs,
+                     predictions);
   }
 };
 

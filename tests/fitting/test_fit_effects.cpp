@@ -511,6 +511,16 @@ TEST(Discover, NamesHiddenHysteresisAndShowsTheGapShrink) {
     // The excess over the floor shrinks at least min_excess_shrink-fold (its acceptance rule).
     EXPECT_GT(g.before - g.floor, DiscoverOptions{}.min_excess_shrink * std::max(g.after - g.floor, 0.0)) << g.test;
   }
+  // The residual plots' rows: every run's whole path, with the effect within the noise.
+  ASSERT_EQ(r.curves.size(), 9u);
+  for (const FitEffectCurve& c : r.curves) {
+    ASSERT_EQ(c.with_N.size(), c.measured_N.size()) << c.run;
+    ASSERT_EQ(c.without_N.size(), c.measured_N.size()) << c.run;
+    double worst_with = 0;
+    for (size_t i = 0; i < c.measured_N.size(); ++i)
+      worst_with = std::max(worst_with, std::abs(c.with_N[i] - c.measured_N[i]) / std::abs(c.measured_N[i]));
+    EXPECT_LT(worst_with, 0.03) << c.test << " " << c.run;  // 0.5 % noise: six standard deviations
+  }
   // Without an effect-fit stage in the protocol, or without cantilevers: untestable, never named.
   EXPECT_EQ(candidate(r, "bending-anisotropy").status, "untestable");
   EXPECT_EQ(candidate(r, "misalignment").status, "untestable");
