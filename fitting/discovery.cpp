@@ -395,6 +395,15 @@ Dataset specimen_fold(const Dataset& dataset, size_t parity) {
   return fold;
 }
 
+// Whether the protocol's effect-fit stage of `effect` fits the bend tests' chord angles.
+bool fits_chord_angles(const Options& fit, const std::string& effect) {
+  for (const ComponentChoice& stage : fit.get_component_list("protocol"))
+    if (stage.name == kEffectFitStage && stage.options.get_string("effect") == effect &&
+        stage.options.get_string("observable") == "chord_angle_deg")
+      return true;
+  return false;
+}
+
 bool has_repeats(const Dataset& dataset) {
   for (const TensileTest& test : dataset.tensile)
     if (test.role == TestRole::Fit && test.runs.size() >= 2) return true;
@@ -458,6 +467,11 @@ DiscoverHeldOut held_out_check(const Dataset& dataset, const Options& fit, const
   DiscoverHeldOut out;
   if (!has_repeats(dataset)) {
     out.note = "every fit test has one specimen (needs two or more per test)";
+    return out;
+  }
+  if (fits_chord_angles(fit, effect)) {  // the folds split tensile runs only
+    out.note = "its data are the cantilevers' chord angles, one per direction (needs a third cantilever angle or "
+               "length to hold out)";
     return out;
   }
   const ScratchFolder scratch;
