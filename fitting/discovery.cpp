@@ -26,6 +26,14 @@ using json = nlohmann::json;
 namespace fs = std::filesystem;
 
 constexpr const char* kSection = "discover";
+// A candidate's statuses (discover_statuses()); "named" and "tied" are verdict kinds too.
+constexpr const char* kNamed = "named";
+constexpr const char* kRejected = "rejected";
+constexpr const char* kUntestable = "untestable";
+constexpr const char* kTied = "tied";
+constexpr const char* kFailed = "failed";
+constexpr const char* kNone = "none";
+constexpr const char* kUnexplained = "unexplained";
 constexpr const char* kEffectFitStage = "effect-fit";
 
 // What separates two effects that explain the same misfit: the data a tie names as needed.
@@ -112,7 +120,7 @@ void judge_one(const DiscoverOptions& options, double threshold, double floor, D
   if (!std::isfinite(e.score)) {
     // A per-run effect (misalignment's offsets) has no score test: whatever its offsets explain,
     // a specimen scale per run explains by moving the whole curve too.
-    c->status = shrinks ? "tied" : "rejected";
+    c->status = shrinks ? kTied : kRejected;
     c->reason = shrinks ? gain + "; no score test for its per-run values, which trade with the specimen scales (needs: " +
                               needs_to_separate(c->name, "specimen scale") + ")"
                         : gain + "; no score test, and the excess over the floor did not shrink " +
@@ -120,12 +128,12 @@ void judge_one(const DiscoverOptions& options, double threshold, double floor, D
     return;
   }
   if (!(e.score_p_value < threshold)) {
-    c->status = "rejected";
+    c->status = kRejected;
     c->reason = fmt::format("calibrated p {:.2g} ≥ α/n = {:.2g} (T {:.3g}, d {}); {}", e.score_p_value, threshold,
                             e.score, e.score_dof, gain);
     return;
   }
-  c->status = shrinks ? "named" : "rejected";
+  c->status = shrinks ? kNamed : kRejected;
   c->reason = fmt::format("calibrated p {:.2g} {} α/n = {:.2g}; {}{}", e.score_p_value, "<", threshold, gain,
                           shrinks ? "" : fmt::format(": the excess over the floor shrank less than {:g}-fold",
                                                      options.min_excess_shrink));
@@ -135,7 +143,7 @@ void judge_one(const DiscoverOptions& options, double threshold, double floor, D
     const bool holds = h.with < h.without;
     c->reason += fmt::format("; held-out specimens {:.2f} % without → {:.2f} % with", 100 * h.without, 100 * h.with);
     if (!holds) {
-      c->status = "rejected";
+      c->status = kRejected;
       c->reason += ": the improvement does not hold on specimens the fit did not see";
     }
   } else if (!h.note.empty()) {
@@ -157,15 +165,15 @@ void resolve_joint(const std::vector<FitEffect>& joint, double threshold, Discov
   std::vector<std::string> earlier;
   for (const FitEffect& e : joint) {
     auto c = std::find_if(result->candidates.begin(), result->candidates.end(),
-                          [&](const DiscoverCandidate& d) { return d.name == e.effect && d.status == "named"; });
+                          [&](const DiscoverCandidate& d) { return d.name == e.effect && d.status == kNamed; });
     if (c == result->candidates.end()) continue;
     if (!earlier.empty() && !(e.score_p_value < threshold)) {
-      c->status = "tied";
+      c->status = kTied;
       c->reason += fmt::format("; after {} in the joint refit its calibrated p is {:.2g}: it explains what {} does",
                                earlier.front(), e.score_p_value, earlier.front());
       const auto first = std::find_if(result->candidates.begin(), result->candidates.end(),
                                       [&](const DiscoverCandidate& d) { return d.name == earlier.front(); });
-      first->status = "tied";
+      first->status = kTied;
       ties->push_back(fmt::format("tied: {}|{} (needs: {})", earlier.front(), e.effect,
                                   needs_to_separate(earlier.front(), e.effect)));
     }
@@ -174,6 +182,16 @@ void resolve_joint(const std::vector<FitEffect>& joint, double threshold, Discov
 }
 
 }  // namespace
+
+const std::vector<std::string>& discover_statuses() {
+  static const std::vector<std::string> statuses = {kNamed, kRejected, kUntestable, kTied, kFailed};
+  return statuses;
+}
+
+const std::vector<std::string>& discover_verdict_kinds() {
+  static const std::vector<std::string> kinds = {kNamed, kNone, kTied, kUnexplained};
+  return kinds;
+}
 
 Options discover_fit_config(const Options& config) {
   Options fit;
@@ -226,10 +244,10 @@ std::vector<DiscoverCandidate> audit_candidates(const Dataset& dataset, const Op
     const std::string missing = registry.create<EffectFactories>(registry_category::kEffect, choice)->missing_data(dataset);
     if (!missing.empty()) {
       constexpr std::string_view kNeeds = "needs ";  // the predicates say "needs …"
-      c.status = "untestable";
+      c.status = kUntestable;
       c.reason = "needs: " + (missing.rfind(kNeeds, 0) == 0 ? missing.substr(kNeeds.size()) : missing);
     } else if (!has_effect_fit_stage(fit_config, name)) {
-      c.status = "untestable";
+      c.status = kUntestable;
       c.reason = "needs: an effect-fit stage for it in the protocol";
     }
     out.push_back(std::move(c));
@@ -248,16 +266,16 @@ void judge_candidates(const DiscoverOptions& options, const std::vector<FitEffec
   std::vector<std::string> ties;
   if (joint) resolve_joint(*joint, threshold, result, &ties);
   for (const DiscoverCandidate& c : result->candidates) {
-    if (c.status == "named") result->named.push_back(c.name);
-    if (c.status == "tied" && !c.effect->tests.empty() && !std::isfinite(c.effect->score))
+    if (c.status == kNamed) result->named.push_back(c.name);
+    if (c.status == kTied && !c.effect->tests.empty() && !std::isfinite(c.effect->score))
       ties.push_back(fmt::format("tied: {}|specimen scale (needs: {})", c.name, needs_to_separate(c.name, "specimen scale")));
   }
   if (!ties.empty())
     result->verdict = ties.front();
   else if (!result->named.empty())
-    result->verdict = "named";
+    result->verdict = kNamed;
   else
-    result->verdict = "none";  // run_discover looks for an unexplained misfit then
+    result->verdict = kNone;  // run_discover looks for an unexplained misfit then
 }
 
 namespace {
@@ -299,7 +317,7 @@ void fit_candidates(const Dataset& dataset, const Options& fit, const Registry& 
       c.effect = *e;
       (*reports)[c.name] = std::move(r);
     } catch (const std::exception& e) {
-      c.status = "failed";
+      c.status = kFailed;
       c.reason = std::string("the fit with it failed: ") + e.what();
     }
     if (progress && c.effect)
@@ -379,7 +397,7 @@ std::string unexplained(const DiscoverResult& result, double ratio) {
     if (std::isfinite(g.floor) && g.before > ratio * g.floor && (!worst || g.before / g.floor > worst->before / worst->floor))
       worst = &g;
   if (!worst) return "";
-  return "unexplained at " + worst->test + misfit_range(result.baseline, worst->test, ratio * worst->floor);
+  return std::string(kUnexplained) + " at " + worst->test + misfit_range(result.baseline, worst->test, ratio * worst->floor);
 }
 
 // The dataset with each fit test's runs of index parity `parity` (a test with one run keeps it:
@@ -506,9 +524,9 @@ DiscoverResult run_discover(const Dataset& dataset, const Options& config, const
   judge_candidates(options, nullptr, &result);
   if (options.held_out)
     for (DiscoverCandidate& c : result.candidates)
-      if (c.status == "named") c.held_out = held_out_check(dataset, fit, c.name, registry, progress);
+      if (c.status == kNamed) c.held_out = held_out_check(dataset, fit, c.name, registry, progress);
   judge_candidates(options, nullptr, &result);
-  const std::vector<std::string> passing = with_status(result, "named");
+  const std::vector<std::string> passing = with_status(result, kNamed);
   if (passing.size() >= 2) {
     if (progress) progress(0, "refit: " + yaml_list(passing) + " jointly");
     result.refit = run_fit(dataset, with_effects(fit, passing, registry), registry, prefixed(progress, "refit"));
@@ -517,11 +535,11 @@ DiscoverResult run_discover(const Dataset& dataset, const Options& config, const
     result.refit = reports.at(passing.front());
   }
   measure_gap(result, floors_by_test(result.candidates), &result.gap, &result.gap_rows, &result.curves);
-  if (result.verdict == "none") {
+  if (result.verdict == kNone) {
     const std::string misfit = unexplained(result, options.unexplained_ratio);
     if (!misfit.empty()) result.verdict = misfit;
   }
-  if (with_status(result, "untestable").size() + with_status(result, "failed").size() == result.candidates.size())
+  if (with_status(result, kUntestable).size() + with_status(result, kFailed).size() == result.candidates.size())
     result.notes.push_back("no candidate could be tested: the verdict rests on the baseline alone");
   result.time_s = std::chrono::duration<double>(Clock::now() - t0).count();
   return result;

@@ -46,6 +46,11 @@ struct DiscoverHeldOut {
   std::string note;  ///< why it was not evaluated, when not
 };
 
+/// A candidate's statuses and the verdicts' kinds (a verdict starts with its kind): the one list
+/// discovery, its metrics and reports use.
+const std::vector<std::string>& discover_statuses();  ///< named, rejected, untestable, tied, failed
+const std::vector<std::string>& discover_verdict_kinds();  ///< named, none, tied, unexplained
+
 /// One candidate effect: what became of it and why.
 struct DiscoverCandidate {
   std::string name;

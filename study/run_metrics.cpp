@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/material_law.hpp"
+#include "fitting/discovery.hpp"
 
 namespace twill {
 namespace {
@@ -124,15 +125,13 @@ std::vector<std::pair<std::string, double>> fit_metrics(const nlohmann::json& re
 }
 
 std::vector<std::pair<std::string, double>> discover_metrics(const nlohmann::json& result) {
-  static const std::vector<std::string> kVerdicts = {"named", "none", "tied", "unexplained"};
-  static const std::vector<std::string> kStatuses = {"named", "rejected", "untestable", "tied", "failed"};
   Metrics out;
   const std::string verdict = result.at("verdict").get<std::string>();
-  for (const std::string& v : kVerdicts) out.emplace_back("verdict." + v, verdict.rfind(v, 0) == 0 ? 1.0 : 0.0);
+  for (const std::string& v : discover_verdict_kinds()) out.emplace_back("verdict." + v, verdict.rfind(v, 0) == 0 ? 1.0 : 0.0);
   out.emplace_back("count.named", static_cast<double>(result.at("named").size()));
   for (const json& c : result.at("candidates")) {
     const std::string name = "candidate." + c.at("name").get<std::string>();
-    for (const std::string& s : kStatuses) out.emplace_back(name + "." + s, c.at("status") == s ? 1.0 : 0.0);
+    for (const std::string& s : discover_statuses()) out.emplace_back(name + "." + s, c.at("status") == s ? 1.0 : 0.0);
     if (c.contains("p_value") && !c.at("p_value").is_null()) out.emplace_back(name + ".p_value", c.at("p_value").get<double>());
   }
   for (const auto& [test, g] : result.at("gap").items())
