@@ -599,8 +599,8 @@ std::string discover_markdown(const DiscoverResult& r) {
   md << "Baseline: the protocol without effects, every repeat with its specimen scale, finest resolution "
      << r.baseline.finest_resolution << " (docs/discover.md). Took " << fmt::format("{:.0f} s", r.time_s) << ".\n\n";
   md << "## Gap per test\n\nAverage relative error (model.md §8) on " << r.gap_rows
-     << ": the paper's model (before), with the named effects (after), and the noise floor (the mean |noise| the "
-        "score test's calibration fitted, core/score_test.hpp).\n\n| test | before | after | floor |\n|---|---|---|---|\n";
+     << ": the paper's model (before), with the named effects (after), and the noise floor (the mean |residual| "
+        "neither the baseline nor an effect explains, at its neutral values or fitted; docs/discover.md §2).\n\n| test | before | after | floor |\n|---|---|---|---|\n";
   for (const DiscoverGap& g : r.gap)
     md << "| " << g.test << " | " << cell(g.before) << " | " << cell(g.after) << " | " << cell(g.floor) << " |\n";
   md << "\n## Candidates\n\n| effect | status | score T (d) | p (calibrated) | p (iid) | error without → with | why "
