@@ -58,15 +58,4 @@ void run_python_script(const Context& context, const std::string& script, const 
   throw std::runtime_error(script + " failed (" + how + "); its messages are above");
 }
 
-TemporaryDirectory::TemporaryDirectory(const std::string& prefix) {
-  std::string pattern = (std::filesystem::temp_directory_path() / (prefix + "XXXXXX")).string();
-  if (!mkdtemp(pattern.data())) throw std::runtime_error("cannot create a temporary directory: " + std::string(std::strerror(errno)));
-  path_ = pattern;
-}
-
-TemporaryDirectory::~TemporaryDirectory() {
-  std::error_code ec;  // best effort: a leftover temp folder must not turn success into failure
-  std::filesystem::remove_all(path_, ec);
-}
-
 }  // namespace twill

@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "app/commands.hpp"
+#include "core/temporary_directory.hpp"  // TemporaryDirectory, which the plot helpers use
 
 namespace twill {
 
@@ -12,18 +13,5 @@ namespace twill {
 /// matplotlib is not importable (the scripts exit with status 3 then), or when the script
 /// fails. The script's own stderr goes to the terminal.
 void run_python_script(const Context& context, const std::string& script, const std::vector<std::string>& args);
-
-/// A fresh private temporary directory (mkdtemp), removed when the object goes out of scope.
-class TemporaryDirectory {
- public:
-  explicit TemporaryDirectory(const std::string& prefix);
-  ~TemporaryDirectory();
-  TemporaryDirectory(const TemporaryDirectory&) = delete;
-  TemporaryDirectory& operator=(const TemporaryDirectory&) = delete;
-  const std::string& path() const { return path_; }
-
- private:
-  std::string path_;
-};
 
 }  // namespace twill

@@ -12,9 +12,8 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include <stdlib.h>  // mkdtemp
-
 #include "core/params_io.hpp"
+#include "core/temporary_directory.hpp"
 #include "effects/effect.hpp"
 #include "fitting/fit_config.hpp"
 
@@ -444,26 +443,6 @@ Options evaluation_config(const Options& fit, const std::string& effect, const s
   return config;
 }
 
-// A private folder for the folds' parameter files, removed with the object.
-class ScratchFolder {
- public:
-  ScratchFolder() {
-    std::string pattern = (fs::temp_directory_path() / "twill-discover-XXXXXX").string();
-    if (!::mkdtemp(pattern.data())) throw std::runtime_error("cannot create a temporary folder in " + fs::temp_directory_path().string());
-    path_ = pattern;
-  }
-  ~ScratchFolder() {
-    std::error_code ignored;
-    fs::remove_all(path_, ignored);
-  }
-  ScratchFolder(const ScratchFolder&) = delete;
-  ScratchFolder& operator=(const ScratchFolder&) = delete;
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
-};
-
 // The held-out runs' error of `params` (with `effect` as it holds it, neutral when it holds
 // none) on `held_out`.
 double held_out_error(const Dataset& held_out, const Options& fit, const std::string& effect, MaterialParameters params,
@@ -492,15 +471,15 @@ DiscoverHeldOut held_out_check(const Dataset& dataset, const Options& fit, const
                "length to hold out)";
     return out;
   }
-  const ScratchFolder scratch;
+  const TemporaryDirectory scratch("twill-discover-");  // the folds' parameter files
   for (size_t parity : {0u, 1u}) {
     const Dataset fitted = specimen_fold(dataset, parity), held = specimen_fold(dataset, 1 - parity);
     const std::string fold = fmt::format("{} fold {}", effect, parity + 1);
     if (progress) progress(0, "held-out check " + fold + ": fitting without and with it, evaluating on the other fold");
     const FitReport without = run_fit(fitted, with_effects(fit, {}, registry), registry, prefixed(progress, fold + " without"));
     const FitReport with = run_fit(fitted, with_effects(fit, {effect}, registry), registry, prefixed(progress, fold + " with"));
-    out.without += 0.5 * held_out_error(held, fit, effect, without.parameters, scratch.path() / "without.yaml", registry);
-    out.with += 0.5 * held_out_error(held, fit, effect, with.parameters, scratch.path() / "with.yaml", registry);
+    out.without += 0.5 * held_out_error(held, fit, effect, without.parameters, fs::path(scratch.path()) / "without.yaml", registry);
+    out.with += 0.5 * held_out_error(held, fit, effect, with.parameters, fs::path(scratch.path()) / "with.yaml", registry);
   }
   out.evaluated = true;
   return out;

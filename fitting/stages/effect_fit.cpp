@@ -147,9 +147,6 @@ class EffectFit final : public FitStage {
     std::vector<const RunData*> force_runs;
     for (const RunData& d : runs_) force_runs.push_back(&d);
     FitEffect result = effect_record(context, level, predictors);
-    std::vector<Eigen::VectorXd> predicted_without, predicted_with;
-    const std::vector<double> without =
-        errors_at_neutral(context, *configured, effect_free, map_options, predictors, force_runs, &predicted_without);
     if (!options_.fit) {  // evaluated where it stands: no score (nothing is fitted), no noise floor
       set_errors(tests,
                  free_scale_errors(neutral_params(context, *configured), effect_free, map_options, predictors,
@@ -159,6 +156,9 @@ class EffectFit final : public FitStage {
       finish(context, std::move(result), out);
       return;
     }
+    std::vector<Eigen::VectorXd> predicted_without, predicted_with;
+    const std::vector<double> without =
+        errors_at_neutral(context, *configured, effect_free, map_options, predictors, force_runs, &predicted_without);
     const std::vector<double> noise =
         score_at_neutral(context, *configured, free, effect_free.size(), map_options, predictors, force_runs, &result);
     const std::vector<double> with =
@@ -443,9 +443,6 @@ class EffectFit final : public FitStage {
     return neutral;
   }
 
-  // The score test of the effect at the parameters so far with the effect neutral
-  // (core/score_test.hpp): the baseline's directions are the curves freed with it (`free`
-  // after its first n_effect entries, the effect's) and the runs' specimen scales.
   // The score test of the effect's unknowns (`free`'s first n_effect) at `params`, the other
   // free names and the runs' specimen scales its baseline (core/score_test.hpp).
   static ScoreTest score_at(const FitContext& context, const MaterialParameters& params,
@@ -485,6 +482,8 @@ class EffectFit final : public FitStage {
     return out;
   }
 
+  // The score test of the effect at the parameters so far with the effect neutral (its result
+  // in *result; a note when it cannot be evaluated); returns the runs' noise there.
   std::vector<double> score_at_neutral(FitContext& context, const ComponentChoice& configured,
                         const std::vector<std::string>& free, size_t n_effect, const ParameterMap::Options& map_options,
                         const std::vector<std::shared_ptr<Predictor>>& predictors,
