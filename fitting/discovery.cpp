@@ -34,6 +34,7 @@ constexpr const char* kFailed = "failed";
 constexpr const char* kNone = "none";
 constexpr const char* kUnexplained = "unexplained";
 constexpr const char* kEffectFitStage = "effect-fit";
+constexpr const char* kTensileCurveStage = "tensile-curve";
 
 // What separates two effects that explain the same misfit: the data a tie names as needed.
 // Keyed by the pair in registration-independent (alphabetical) order.
@@ -302,32 +303,6 @@ FitProgress prefixed(const FitProgress& progress, const std::string& what) {
   };
 }
 
-// Each testable candidate fitted alone; its report kept by name for the refit.
-void fit_candidates(const Dataset& dataset, const Options& fit, const Registry& registry, const FitProgress& progress,
-                    DiscoverResult* result, std::map<std::string, FitReport>* reports) {
-  for (DiscoverCandidate& c : result->candidates) {
-    if (!c.status.empty()) continue;
-    const auto t = Clock::now();
-    if (progress) progress(0, "candidate " + c.name + ": fitting the protocol with it");
-    try {
-      FitReport r = run_fit(dataset, with_effects(fit, {c.name}, registry), registry, prefixed(progress, c.name));
-      const FitEffect* e = record_of(r.effects, c.name);
-      if (!e) throw std::runtime_error("its effect-fit stage did not run");
-      c.effect = *e;
-      (*reports)[c.name] = std::move(r);
-    } catch (const std::exception& e) {
-      c.status = kFailed;
-      c.reason = std::string("the fit with it failed: ") + e.what();
-    }
-    if (progress && c.effect)
-      progress(0, fmt::format("candidate {}: error {:.2f} % → {:.2f} %, {} ({:.0f} s)", c.name,
-                              100 * c.effect->error_without, 100 * c.effect->error_with,
-                              std::isfinite(c.effect->score) ? fmt::format("calibrated p {:.2g}", c.effect->score_p_value)
-                                                             : std::string("no score test"),
-                              std::chrono::duration<double>(Clock::now() - t).count()));
-  }
-}
-
 std::vector<std::string> with_status(const DiscoverResult& result, const std::string& status) {
   std::vector<std::string> out;
   for (const DiscoverCandidate& c : result.candidates)
@@ -427,59 +402,139 @@ bool has_repeats(const Dataset& dataset) {
   return false;
 }
 
-// `fit` (with `effect` configured) evaluating the parameters in `params_path` on a dataset:
-// start-from them, then the protocol's effect-fit stage of `effect` with nothing fitted.
-Options evaluation_config(const Options& fit, const std::string& effect, const std::string& params_path,
-                          const Registry& registry) {
-  Options config = fit;
+// `fit` with `effects` on and a protocol of three parts: start-from `params_path`; the
+// protocol's tensile-curve stages with `fit: false` (the curves as the file holds them, free in
+// the effect-fit stages); the protocol's effect-fit stages of `effects` (in its order) at
+// `level`, the level the parameters were fitted at. The curves, cutoffs and thickness come from
+// the file, so a candidate costs its own stage, not a repeat of the elastic stages it shares
+// with the baseline (they all run before any effect-fit stage and do not depend on the
+// effects). `fit_effects` false: evaluate the file's parameters only (effect-fit's `fit: false`).
+Options effect_stages_config(const Options& fit, const std::vector<std::string>& effects, const std::string& params_path,
+                             int level, bool fit_effects, const Registry& registry) {
+  Options config = with_effects(fit, effects, registry);
   const RegistryCategory* stages = registry.find_category(registry_category::kStage);
   ComponentChoice start{registry_category::kStage, "start-from", default_options(stages->at("start-from").options, &registry)};
   start.options.set("params", params_path);
   std::vector<ComponentChoice> protocol = {start};
-  for (const ComponentChoice& stage : fit.get_component_list("protocol"))
-    if (stage.name == kEffectFitStage && stage.options.get_string("effect") == effect) protocol.push_back(stage);
-  protocol.back().options.set("fit", false);
+  for (ComponentChoice stage : fit.get_component_list("protocol")) {
+    if (stage.name == kTensileCurveStage) {
+      stage.options.set("fit", false);
+    } else if (stage.name == kEffectFitStage &&
+               std::find(effects.begin(), effects.end(), stage.options.get_string("effect")) != effects.end()) {
+      stage.options.set("level", level);
+      if (!fit_effects) stage.options.set("fit", false);
+    } else {
+      continue;
+    }
+    protocol.push_back(std::move(stage));
+  }
   config.set("protocol", protocol);
+  apply_override(config, fit_config_schema(), &registry, fmt::format("resolution.levels={}", std::max(level + 1, 1)));
   return config;
+}
+
+// `params` written to `file` (the start-from stages read it) with `effects` held at their
+// neutral values where it holds none of them.
+std::string params_with_effects(MaterialParameters params, const std::vector<std::string>& effects, const fs::path& file,
+                                const Registry& registry) {
+  const RegistryCategory* category = registry.find_category(registry_category::kEffect);
+  for (const std::string& effect : effects)
+    if (std::none_of(params.effects.begin(), params.effects.end(), [&](const ComponentChoice& c) { return c.name == effect; }))
+      params.effects.push_back({registry_category::kEffect, effect, default_options(category->at(effect).options, &registry)});
+  write_params_file(params, file.string());
+  return file.string();
 }
 
 // The held-out runs' error of `params` (with `effect` as it holds it, neutral when it holds
 // none) on `held_out`.
-double held_out_error(const Dataset& held_out, const Options& fit, const std::string& effect, MaterialParameters params,
-                      const fs::path& file, const Registry& registry) {
-  if (std::none_of(params.effects.begin(), params.effects.end(), [&](const ComponentChoice& c) { return c.name == effect; })) {
-    const RegistryCategory* effects = registry.find_category(registry_category::kEffect);
-    params.effects.push_back({registry_category::kEffect, effect, default_options(effects->at(effect).options, &registry)});
-  }
-  write_params_file(params, file.string());
-  const FitReport r = run_fit(held_out, evaluation_config(with_effects(fit, {effect}, registry), effect, file.string(), registry),
-                              registry, {});
+double held_out_error(const Dataset& held_out, const Options& fit, const std::string& effect, const MaterialParameters& params,
+                      int level, const fs::path& file, const Registry& registry) {
+  const std::string path = params_with_effects(params, {effect}, file, registry);
+  const FitReport r = run_fit(held_out, effect_stages_config(fit, {effect}, path, level, false, registry), registry, {});
   const FitEffect* e = record_of(r.effects, effect);
   if (!e) throw std::logic_error("the held-out evaluation of " + effect + " ran no effect-fit stage");
   return e->error_with;
 }
 
-DiscoverHeldOut held_out_check(const Dataset& dataset, const Options& fit, const std::string& effect,
-                               const Registry& registry, const FitProgress& progress) {
+// What the steps after the baseline share: the fit config, a scratch folder for the parameter
+// files their start-from stages read, and the held-out folds' baselines (fitted once, used by
+// every candidate's check).
+struct DiscoverWork {
+  const Dataset& dataset;
+  const Options& fit;
+  const Registry& registry;
+  const FitProgress& progress;
+  TemporaryDirectory scratch{"twill-discover-"};
+  int level = 0;  ///< the baseline's finest level: where every effect is fitted and evaluated
+  std::map<size_t, MaterialParameters> fold_baselines = {};  ///< by the fitted fold's parity
+
+  fs::path file(const std::string& name) const { return fs::path(scratch.path()) / name; }
+};
+
+// `effects` fitted from `start` (start-from + their effect-fit stages) on `dataset`.
+FitReport fit_effects_from(const DiscoverWork& work, const Dataset& dataset, const MaterialParameters& start,
+                           const std::vector<std::string>& effects, const std::string& what) {
+  const std::string path = params_with_effects(start, {}, work.file(what + ".yaml"), work.registry);
+  return run_fit(dataset, effect_stages_config(work.fit, effects, path, work.level, true, work.registry), work.registry,
+                 prefixed(work.progress, what));
+}
+
+// Each testable candidate fitted alone from the baseline; its report kept by name for the refit.
+void fit_candidates(const DiscoverWork& work, DiscoverResult* result, std::map<std::string, FitReport>* reports) {
+  for (DiscoverCandidate& c : result->candidates) {
+    if (!c.status.empty()) continue;
+    const auto t = Clock::now();
+    if (work.progress) work.progress(0, "candidate " + c.name + ": fitting it with the curves, from the baseline");
+    try {
+      FitReport r = fit_effects_from(work, work.dataset, result->baseline.parameters, {c.name}, c.name);
+      const FitEffect* e = record_of(r.effects, c.name);
+      if (!e) throw std::runtime_error("its effect-fit stage did not run");
+      c.effect = *e;
+      (*reports)[c.name] = std::move(r);
+    } catch (const std::exception& e) {
+      c.status = kFailed;
+      c.reason = std::string("the fit with it failed: ") + e.what();
+    }
+    if (work.progress && c.effect)
+      work.progress(0, fmt::format("candidate {}: error {:.2f} % → {:.2f} %, {} ({:.0f} s)", c.name,
+                                   100 * c.effect->error_without, 100 * c.effect->error_with,
+                                   std::isfinite(c.effect->score) ? fmt::format("calibrated p {:.2g}", c.effect->score_p_value)
+                                                                  : std::string("no score test"),
+                                   std::chrono::duration<double>(Clock::now() - t).count()));
+  }
+}
+
+// The baseline of the fold of parity `parity` (the whole protocol without effects), fitted the
+// first time a candidate's check asks for it.
+const MaterialParameters& fold_baseline(DiscoverWork& work, size_t parity) {
+  const auto found = work.fold_baselines.find(parity);
+  if (found != work.fold_baselines.end()) return found->second;
+  const std::string what = fmt::format("fold {} baseline", parity + 1);
+  if (work.progress) work.progress(0, "held-out check: " + what + " (the protocol without effects on that fold)");
+  const FitReport r = run_fit(specimen_fold(work.dataset, parity), with_effects(work.fit, {}, work.registry),
+                              work.registry, prefixed(work.progress, what));
+  return work.fold_baselines.emplace(parity, r.parameters).first->second;
+}
+
+DiscoverHeldOut held_out_check(DiscoverWork& work, const std::string& effect) {
   DiscoverHeldOut out;
-  if (!has_repeats(dataset)) {
+  if (!has_repeats(work.dataset)) {
     out.note = "every fit test has one specimen (needs two or more per test)";
     return out;
   }
-  if (fits_chord_angles(fit, effect)) {  // the folds split tensile runs only
+  if (fits_chord_angles(work.fit, effect)) {  // the folds split tensile runs only
     out.note = "its data are the cantilevers' chord angles, one per direction (needs a third cantilever angle or "
                "length to hold out)";
     return out;
   }
-  const TemporaryDirectory scratch("twill-discover-");  // the folds' parameter files
   for (size_t parity : {0u, 1u}) {
-    const Dataset fitted = specimen_fold(dataset, parity), held = specimen_fold(dataset, 1 - parity);
+    const Dataset fitted = specimen_fold(work.dataset, parity), held = specimen_fold(work.dataset, 1 - parity);
     const std::string fold = fmt::format("{} fold {}", effect, parity + 1);
-    if (progress) progress(0, "held-out check " + fold + ": fitting without and with it, evaluating on the other fold");
-    const FitReport without = run_fit(fitted, with_effects(fit, {}, registry), registry, prefixed(progress, fold + " without"));
-    const FitReport with = run_fit(fitted, with_effects(fit, {effect}, registry), registry, prefixed(progress, fold + " with"));
-    out.without += 0.5 * held_out_error(held, fit, effect, without.parameters, fs::path(scratch.path()) / "without.yaml", registry);
-    out.with += 0.5 * held_out_error(held, fit, effect, with.parameters, fs::path(scratch.path()) / "with.yaml", registry);
+    const MaterialParameters& without = fold_baseline(work, parity);
+    if (work.progress) work.progress(0, "held-out check " + fold + ": fitting it from the fold's baseline, evaluating on the other fold");
+    const FitReport with = fit_effects_from(work, fitted, without, {effect}, fold);
+    out.without += 0.5 * held_out_error(held, work.fit, effect, without, work.level, work.file("without.yaml"), work.registry);
+    out.with += 0.5 * held_out_error(held, work.fit, effect, with.parameters, work.level, work.file("with.yaml"), work.registry);
   }
   out.evaluated = true;
   return out;
@@ -498,17 +553,19 @@ DiscoverResult run_discover(const Dataset& dataset, const Options& config, const
     if (progress && !c.status.empty()) progress(0, "candidate " + c.name + ": " + c.status + " (" + c.reason + ")");
   if (progress) progress(0, "baseline: the protocol without effects, every repeat with its specimen scale");
   result.baseline = run_fit(dataset, fit, registry, prefixed(progress, "baseline"));
+  DiscoverWork work{dataset, fit, registry, progress};
+  work.level = result.baseline.finest_level;
   std::map<std::string, FitReport> reports;
-  fit_candidates(dataset, fit, registry, progress, &result, &reports);
+  fit_candidates(work, &result, &reports);
   judge_candidates(options, nullptr, &result);
   if (options.held_out)
     for (DiscoverCandidate& c : result.candidates)
-      if (c.status == kNamed) c.held_out = held_out_check(dataset, fit, c.name, registry, progress);
+      if (c.status == kNamed) c.held_out = held_out_check(work, c.name);
   judge_candidates(options, nullptr, &result);
   const std::vector<std::string> passing = with_status(result, kNamed);
   if (passing.size() >= 2) {
-    if (progress) progress(0, "refit: " + yaml_list(passing) + " jointly");
-    result.refit = run_fit(dataset, with_effects(fit, passing, registry), registry, prefixed(progress, "refit"));
+    if (progress) progress(0, "refit: " + yaml_list(passing) + " jointly, from the baseline");
+    result.refit = fit_effects_from(work, dataset, result.baseline.parameters, passing, "refit");
     judge_candidates(options, &result.refit->effects, &result);
   } else if (passing.size() == 1) {
     result.refit = reports.at(passing.front());

@@ -203,11 +203,13 @@ FitReport run_fit(const Dataset& dataset, const Options& options, const Registry
       if (!running.empty()) merge(report, std::move(part), running + " (failed)", seconds_since(stage_start));
       *finished = report;
       finished->parameters = context.params;
+      finished->finest_level = context.finest_level;
     }
     throw;
   }
   report.timing_s.emplace_back("total", seconds_since(start));
   report.parameters = context.params;
+  report.finest_level = context.finest_level;
   return report;
 }
 

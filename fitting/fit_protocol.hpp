@@ -175,6 +175,7 @@ struct FitReport {
   std::vector<FitStageRecord> stages;
   std::vector<FitRefinement> refinement;  ///< per stage and finer level, in fit order
   std::string finest_resolution;          ///< where the final curves and validation ran
+  int finest_level = 0;                   ///< its level (0: the coarsest; FitContext::finest_level)
   std::vector<FitCurve> fit;
   std::vector<FitBend> bend;
   std::vector<FitCurve> validation;

@@ -9,6 +9,8 @@
 // discretisation the config names (papers/transfer/). The file is read and checked when the
 // protocol is checked, before any stage runs; a relative path is read from the working folder
 // (as every path of the command line).
+#include <algorithm>
+
 #include "core/input_error.hpp"
 #include "core/option_binding.hpp"
 #include "core/params_io.hpp"
@@ -38,6 +40,22 @@ bool StartFromOptions::validate(std::string* error) const {
   return check_options(start_from_bindings(), *this, error);
 }
 
+// The fit's effects are the config's, in its order (the effect-fit stages and the fit's end
+// look them up so): each with the file's values when the file holds it, else as configured
+// (neutral by default); an effect of the file the config does not name is left out, and said.
+std::vector<ComponentChoice> effects_in_config_order(FitContext& context, const std::vector<ComponentChoice>& in_file) {
+  std::vector<ComponentChoice> out;
+  for (const ComponentChoice& configured : context.config().effects) {
+    const auto found = std::find_if(in_file.begin(), in_file.end(),
+                                    [&](const ComponentChoice& c) { return c.name == configured.name; });
+    out.push_back(found != in_file.end() ? *found : configured);
+  }
+  for (const ComponentChoice& c : in_file)
+    if (std::none_of(out.begin(), out.end(), [&](const ComponentChoice& o) { return o.name == c.name; }))
+      context.note("start-from: effect " + c.name + " of the file left out (the config's effects do not name it)");
+  return out;
+}
+
 class StartFrom final : public FitStage {
  public:
   explicit StartFrom(StartFromOptions options) : options_(std::move(options)) {}
@@ -56,7 +74,9 @@ class StartFrom final : public FitStage {
 
   void run(FitContext& context, FitReport& out) override {
     (void)out;
-    context.params = read_params_file(options_.params, &context.registry());
+    MaterialParameters file = read_params_file(options_.params, &context.registry());
+    file.effects = effects_in_config_order(context, file.effects);
+    context.params = std::move(file);
     context.note("parameters from " + options_.params + " (start-from stage)");
   }
 

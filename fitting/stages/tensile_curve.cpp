@@ -31,6 +31,7 @@ struct TensileCurveOptions {
   int raise_attempts = 3;
   bool uniform_starts = true;
   int level = 0;
+  bool fit = true;
   bool validate(std::string* error) const;
 };
 
@@ -62,6 +63,12 @@ OptionBindings<TensileCurveOptions> tensile_curve_bindings() {
       // whether the coarse mesh's off-axis error steers the choice (issue #12).
       integer_option<S>("level", &S::level, "the resolution level of the degree search (0: the coarsest)",
                         in_range(0, 4)),
+      // `twill discover` fits each candidate effect from the baseline's parameters: start-from,
+      // then these stages with fit: false (so the effect-fit stages free the curves), then the
+      // effect-fit stages; the elastic fit is not repeated per candidate.
+      bool_option<S>("fit", &S::fit,
+                     "false: take the curve as the current parameters hold it (after start-from): later stages see it "
+                     "as fitted, nothing is optimised"),
   };
 }
 
@@ -102,7 +109,10 @@ class TensileCurveStage final : public FitStage {
       context.note("no " + stage_.label + " test: stage skipped, its parameters stay at the initial guess");
       return;
     }
-    choose_degree(context);
+    if (options_.fit)
+      choose_degree(context);
+    else
+      context.note(stage_.label + ": curve taken as the parameters hold it (fit: false)");
     context.fitted_curves.push_back(stage_);
   }
 

@@ -298,7 +298,24 @@ TEST(FitProtocolAsData, StartFromEvaluatesGivenParametersWithoutFitting) {
                                "}, {name: final-curves, warm_start: false}, {name: bend, fit_thickness: false, find_overhang: false}]");
   const Options evaluate = coarse_config(evaluate_overrides);
   const FitReport again = run_fit(dataset, evaluate, registry(), {});
+  // Curves with fit: false after it (twill discover's candidates, docs/discover.md): the fit's
+  // curves as the file holds them, nothing refitted; an effect of the config the file does not
+  // hold joins at its configured (neutral) values.
+  std::string held_curves = curves;
+  for (size_t at = 0; (at = held_curves.find("uniform_starts: false}", at)) != std::string::npos; at += 10)
+    held_curves.replace(at, std::string("uniform_starts: false}").size(), "uniform_starts: false, fit: false}");
+  std::vector<std::string> held_overrides = tiny;
+  held_overrides.push_back("protocol=[{name: start-from, params: " + params.string() + "}, " + held_curves +
+                           ", {name: final-curves, warm_start: false}]");
+  held_overrides.push_back("effects=[bending-anisotropy]");
+  const FitReport held = run_fit(dataset, coarse_config(held_overrides), registry(), {});
   std::filesystem::remove(params);
+  EXPECT_TRUE(held.stages.empty());
+  ASSERT_EQ(held.fit.size(), fitted.fit.size());
+  for (size_t i = 0; i < fitted.fit.size(); ++i)
+    EXPECT_NEAR(held.fit[i].avg_rel_error, fitted.fit[i].avg_rel_error, 1e-9) << fitted.fit[i].label;
+  ASSERT_EQ(held.parameters.effects.size(), 1u);
+  EXPECT_EQ(held.parameters.effects.front().name, "bending-anisotropy");
   EXPECT_TRUE(again.stages.empty());  // nothing fitted
   EXPECT_EQ(again.parameters.thickness_m, fitted.parameters.thickness_m);
   ASSERT_EQ(again.fit.size(), fitted.fit.size());
