@@ -142,9 +142,13 @@ void judge_one(const DiscoverOptions& options, double threshold, double floor, D
   if (h.evaluated) {
     const bool holds = h.with < h.without;
     c->reason += fmt::format("; held-out specimens {:.2f} % without → {:.2f} % with", 100 * h.without, 100 * h.with);
+    std::string unstable;
     if (!holds) {
       c->status = kRejected;
       c->reason += ": the improvement does not hold on specimens the fit did not see";
+    } else if (!stable_over_folds(e.parameters, h, &unstable)) {
+      c->status = kRejected;
+      c->reason += "; not stable over the specimen folds: " + unstable;
     }
   } else if (!h.note.empty()) {
     c->reason += "; held-out check not made: " + h.note;
@@ -182,6 +186,23 @@ void resolve_joint(const std::vector<FitEffect>& joint, double threshold, Discov
 }
 
 }  // namespace
+
+bool stable_over_folds(const std::vector<FitEffectParameter>& fitted, const DiscoverHeldOut& held_out, std::string* why) {
+  // Off neutral: further from it than round-off of the optimiser's scaled unknowns.
+  constexpr double kOffNeutral = 1e-9;
+  for (size_t i = 0; i < fitted.size(); ++i) {
+    const FitEffectParameter& p = fitted[i];
+    const double side = p.value - p.neutral;
+    if (std::abs(side) <= kOffNeutral * std::max(1.0, std::abs(p.neutral))) continue;
+    for (size_t f = 0; f < held_out.folds.size(); ++f) {
+      if (i >= held_out.folds[f].size() || (held_out.folds[f][i].value - p.neutral) * side > 0) continue;
+      *why = fmt::format("{} is {:.4g} fitted on all specimens but {:.4g} on fold {} (neutral {:g})", p.name, p.value,
+                         held_out.folds[f][i].value, f + 1, p.neutral);
+      return false;
+    }
+  }
+  return true;
+}
 
 const std::vector<std::string>& discover_statuses() {
   static const std::vector<std::string> statuses = {kNamed, kRejected, kUntestable, kTied, kFailed};
@@ -533,6 +554,7 @@ DiscoverHeldOut held_out_check(DiscoverWork& work, const std::string& effect) {
     const MaterialParameters& without = fold_baseline(work, parity);
     if (work.progress) work.progress(0, "held-out check " + fold + ": fitting it from the fold's baseline, evaluating on the other fold");
     const FitReport with = fit_effects_from(work, fitted, without, {effect}, fold);
+    if (const FitEffect* e = record_of(with.effects, effect)) out.folds.push_back(e->parameters);
     out.without += 0.5 * held_out_error(held, work.fit, effect, without, work.level, work.file("without.yaml"), work.registry);
     out.with += 0.5 * held_out_error(held, work.fit, effect, with.parameters, work.level, work.file("with.yaml"), work.registry);
   }
@@ -585,6 +607,19 @@ namespace {
 
 json number(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 
+// Parameter i's interval: its range over the fit on every specimen and the fits on each fold
+// (the specimen resamples; docs/discover.md §2); none without folds.
+std::optional<std::pair<double, double>> fold_interval(const DiscoverCandidate& c, size_t i) {
+  if (c.held_out.folds.empty()) return std::nullopt;
+  double lo = c.effect->parameters[i].value, hi = lo;
+  for (const auto& fold : c.held_out.folds)
+    if (i < fold.size()) {
+      lo = std::min(lo, fold[i].value);
+      hi = std::max(hi, fold[i].value);
+    }
+  return std::make_pair(lo, hi);
+}
+
 json candidate_json(const DiscoverCandidate& c) {
   json j = {{"name", c.name}, {"status", c.status}, {"reason", c.reason}};
   if (!c.effect) return j;
@@ -602,9 +637,19 @@ json candidate_json(const DiscoverCandidate& c) {
   else if (!c.held_out.note.empty())
     j["held_out"] = {{"not_evaluated", c.held_out.note}};
   j["parameters"] = json::array();
-  for (const FitEffectParameter& p : e.parameters)
-    j["parameters"].push_back({{"name", p.name}, {"value", p.value}, {"unit", p.unit}, {"lower", p.lower},
-                               {"upper", p.upper}});
+  for (size_t i = 0; i < e.parameters.size(); ++i) {
+    const FitEffectParameter& p = e.parameters[i];
+    json q = {{"name", p.name}, {"value", p.value}, {"unit", p.unit}, {"neutral", p.neutral}, {"lower", p.lower},
+              {"upper", p.upper}};
+    if (const auto interval = fold_interval(c, i)) {
+      json folds = json::array();
+      for (const auto& fold : c.held_out.folds)
+        if (i < fold.size()) folds.push_back(fold[i].value);
+      q["folds"] = folds;
+      q["interval"] = {interval->first, interval->second};
+    }
+    j["parameters"].push_back(q);
+  }
   return j;
 }
 
@@ -649,11 +694,15 @@ std::string discover_markdown(const DiscoverResult& r) {
                       scored ? fmt::format("{:.2g}", c.effect->score_p_value_iid) : "—",
                       c.effect ? cell(c.effect->error_without) + " → " + cell(c.effect->error_with) : "—", c.reason);
   }
-  md << "\n| effect | parameter | value | unit |\n|---|---|---|---|\n";
+  md << "\n| effect | parameter | value | neutral | interval over the specimen folds | unit |\n|---|---|---|---|---|---|\n";
   for (const DiscoverCandidate& c : r.candidates)
     if (c.effect)
-      for (const FitEffectParameter& p : c.effect->parameters)
-        md << fmt::format("| {} | {} | {:.5g} | {} |\n", c.name, p.name, p.value, p.unit);
+      for (size_t i = 0; i < c.effect->parameters.size(); ++i) {
+        const FitEffectParameter& p = c.effect->parameters[i];
+        const auto interval = fold_interval(c, i);
+        md << fmt::format("| {} | {} | {:.5g} | {:g} | {} | {} |\n", c.name, p.name, p.value, p.neutral,
+                          interval ? fmt::format("{:.5g} … {:.5g}", interval->first, interval->second) : "—", p.unit);
+      }
   if (!r.notes.empty()) {
     md << "\n## Notes\n\n";
     for (const std::string& n : r.notes) md << "- " << n << "\n";

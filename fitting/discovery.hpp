@@ -44,7 +44,15 @@ struct DiscoverHeldOut {
   bool evaluated = false;
   double without = 0, with = 0;
   std::string note;  ///< why it was not evaluated, when not
+  /// The effect's parameters as each fold's fit left them (resamples of the specimens: their
+  /// spread is the parameters' interval, and their sides of the neutral values the stability).
+  std::vector<std::vector<FitEffectParameter>> folds = {};
 };
+
+/// Whether every parameter the fit moved off its neutral value stays on that side of it in each
+/// fold (the effect points the same way on either half of the specimens); `why` names the
+/// first that does not. True when there are no folds.
+bool stable_over_folds(const std::vector<FitEffectParameter>& fitted, const DiscoverHeldOut& held_out, std::string* why);
 
 /// A candidate's statuses and the verdicts' kinds (a verdict starts with its kind): the one list
 /// discovery, its metrics and reports use.

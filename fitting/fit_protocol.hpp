@@ -124,6 +124,7 @@ struct FitEffectParameter {
   std::string name;  ///< "hysteresis.warp_friction_N_m"
   std::string unit;
   double value = 0, lower = 0, upper = 0;
+  double neutral = 0;  ///< its value in the paper's model (the effect's schema default)
 };
 
 /// One test's share of an effect-fit stage: its runs' mean error without and with the effect,

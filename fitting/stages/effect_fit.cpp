@@ -167,8 +167,7 @@ class EffectFit final : public FitStage {
     set_errors(tests, without, with, smaller_noise(noise, noise_at_fit(context, free, effect_free.size(), map_options,
                                                                         predictors, force_runs)),
                &result);
-    for (const EffectParameter& p : effect_parameters({context.params.effects[index]}, context.registry()))
-      result.parameters.push_back({p.name, p.unit, p.value, p.lower, p.upper});
+    record_parameters(context, context.params.effects[index], &result);
     finish(context, std::move(result), out);
   }
 
@@ -326,8 +325,7 @@ class EffectFit final : public FitStage {
       run_values.push_back(Eigen::VectorXd::Constant(1, FitContext::strip_offset(*d)));
     ComponentChoice& fitted = context.params.effects[index];
     fitted.options = context.effects[index]->estimated_from_runs(run_values, fitted.options);
-    for (const EffectParameter& p : effect_parameters({fitted}, context.registry()))
-      result.parameters.push_back({p.name, p.unit, p.value, p.lower, p.upper});
+    record_parameters(context, fitted, &result);
     finish(context, std::move(result), out);
   }
 
@@ -434,6 +432,18 @@ class EffectFit final : public FitStage {
   }
 
   // The parameters so far with the effect at its neutral values (the schema defaults).
+  // The effect's parameters as fitted, each with its neutral value beside it.
+  static void record_parameters(const FitContext& context, const ComponentChoice& fitted, FitEffect* result) {
+    const ComponentChoice neutral{fitted.category, fitted.name,
+                                  default_options(context.registry().find_category(registry_category::kEffect)->at(fitted.name).options,
+                                                  nullptr)};
+    const std::vector<EffectParameter> at_neutral = effect_parameters({neutral}, context.registry());
+    const std::vector<EffectParameter> values = effect_parameters({fitted}, context.registry());
+    for (size_t i = 0; i < values.size(); ++i)
+      result->parameters.push_back({values[i].name, values[i].unit, values[i].value, values[i].lower, values[i].upper,
+                                    i < at_neutral.size() ? at_neutral[i].value : 0.0});
+  }
+
   static MaterialParameters neutral_params(const FitContext& context, const ComponentChoice& configured) {
     MaterialParameters neutral = context.params;
     for (ComponentChoice& c : neutral.effects)

@@ -61,6 +61,25 @@ TEST(DiscoverJudge, NamesOnlyWhatHoldsOnHeldOutSpecimens) {
   EXPECT_NE(one.candidates[0].reason.find("held-out check not made"), std::string::npos);
 }
 
+// The specimen resamples: a parameter the fit moved off neutral must stay on that side in each
+// fold's fit; one at its neutral value (here the shear friction) constrains nothing.
+TEST(DiscoverJudge, NamesOnlyWhatIsStableOverTheSpecimenFolds) {
+  DiscoverCandidate c = fitted("hysteresis", 1e-3, 0.08, 0.012);
+  const auto parameters = [](double warp, double shear) {
+    return std::vector<FitEffectParameter>{{"hysteresis.warp_friction_N_m", "N/m", warp, 0, 1e4, 0},
+                                           {"hysteresis.shear_friction_N_m", "N/m", shear, 0, 1e4, 0}};
+  };
+  c.effect->parameters = parameters(150, 0);
+  c.held_out = {true, 0.07, 0.02, "", {parameters(120, 3), parameters(170, 0)}};
+  EXPECT_EQ(judged({c}).verdict, "named");
+  c.held_out.folds[1] = parameters(0, 0);  // one half of the specimens shows no friction at all
+  const DiscoverResult r = judged({c});
+  EXPECT_EQ(r.verdict, "none");
+  EXPECT_NE(r.candidates[0].reason.find("not stable over the specimen folds: hysteresis.warp_friction_N_m"),
+            std::string::npos)
+      << r.candidates[0].reason;
+}
+
 TEST(DiscoverJudge, TestsEachCandidateAtAlphaOverTheNumberTested) {
   // p 0.03 < α = 0.05 alone, but not < α/2 beside a second candidate tested.
   EXPECT_EQ(judged({fitted("hysteresis", 0.03, 0.08, 0.012)}).verdict, "named");

@@ -506,6 +506,11 @@ TEST(Discover, NamesHiddenHysteresisAndShowsTheGapShrink) {
   EXPECT_TRUE(h.evaluated);
   EXPECT_LT(h.with, 0.5 * h.without);
   std::printf("[measured] discover: held-out specimens %.2f %% without, %.2f %% with\n", 100 * h.without, 100 * h.with);
+  // Each fold's fit is a resample of the specimens: it recorded the effect's parameters.
+  ASSERT_EQ(h.folds.size(), 2u);
+  for (size_t i = 0; i < h.folds[0].size(); ++i)
+    std::printf("[measured] discover: %s %.4g, folds %.4g, %.4g\n", h.folds[0][i].name.c_str(),
+                candidate(r, "hysteresis").effect->parameters[i].value, h.folds[0][i].value, h.folds[1][i].value);
   ASSERT_EQ(r.gap.size(), 3u);
   for (const DiscoverGap& g : r.gap) {
     // The excess over the floor shrinks at least min_excess_shrink-fold (its acceptance rule).
