@@ -1,5 +1,5 @@
 // `twill discover DATASET [-c CONFIG.yaml] [--set KEY=VALUE ...] [-o OUTDIR] [--force] [--quiet]`:
-// which effect the paper's model misses on a dataset (fitting/discovery.hpp, docs/discover.md).
+// which effect the paper's model misses on a dataset (fitting/discovery.hpp, docs/discovery.md).
 //
 // The config is a fit config (`twill fit --print-config`) with a `discover:` section
 // (candidates, alpha, min_excess_shrink, unexplained_ratio; `twill discover --print-config`).

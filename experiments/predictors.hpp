@@ -65,6 +65,8 @@ class TensilePredictor : public Experiment {
   bool predict(const MaterialParameters& k, const std::vector<int>& flat, Eigen::VectorXd* values,
                Eigen::MatrixXd* jacobian, std::string* message) override;
   long equilibrium_solves() const override { return solves_; }
+  /// Warm-started runs solved again from the flat strip because they left the anchor's branch.
+  long branch_retries() const { return branch_retries_; }
 
   /// Turn warm starts across evaluations off (for comparisons; on by default).
   void set_warm_start(bool on) { warm_start_ = on; }
@@ -85,6 +87,7 @@ class TensilePredictor : public Experiment {
   /// Turns the engine's angle sensitivity on or off, rebuilding nothing when it already is.
   void use_angle_sensitivity(bool on);
   long solves_ = 0;
+  long branch_retries_ = 0;
   TensileCurve last_curve_;
   Eigen::VectorXd last_q_;  ///< the last simulate()'s final equilibrium (last_surface)
   // Anchor of the warm start: flat k, the indices of dq/dk's columns, states per point.
@@ -92,6 +95,10 @@ class TensilePredictor : public Experiment {
   std::vector<int> anchor_flat_;
   std::vector<Eigen::VectorXd> anchor_q_;
   std::vector<Eigen::MatrixXd> anchor_dq_;
+  Eigen::VectorXd anchor_values_;    ///< the observables at the anchor
+  Eigen::MatrixXd anchor_jacobian_;  ///< and their derivatives in its columns
+  /// Whether a completed warm run left the anchor's first-order prediction (predictors.cpp).
+  bool left_the_anchors_branch(const TensileCurve& warm, bool force, const Eigen::VectorXd& dk) const;
 };
 
 class CantileverPredictor : public Experiment {

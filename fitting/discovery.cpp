@@ -223,7 +223,7 @@ Options discover_fit_config(const Options& config) {
 
 OptionSchema discover_config_schema() {
   OptionSchema schema = fit_config_schema();
-  OptionSchema& d = schema.add_section(kSection, "twill discover: candidates and acceptance (docs/discover.md)");
+  OptionSchema& d = schema.add_section(kSection, "twill discover: candidates and acceptance (docs/discovery.md)");
   d.add_component_list("candidates", registry_category::kEffect,
                        "the effects it tests (empty: every registered effect, twill list effect)");
   d.add_double("alpha", DiscoverOptions{}.alpha,
@@ -608,7 +608,7 @@ namespace {
 json number(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 
 // Parameter i's interval: its range over the fit on every specimen and the fits on each fold
-// (the specimen resamples; docs/discover.md §2); none without folds.
+// (the specimen resamples; docs/discovery.md §2); none without folds.
 std::optional<std::pair<double, double>> fold_interval(const DiscoverCandidate& c, size_t i) {
   if (c.held_out.folds.empty()) return std::nullopt;
   double lo = c.effect->parameters[i].value, hi = lo;
@@ -678,10 +678,10 @@ std::string discover_markdown(const DiscoverResult& r) {
   md << "# twill discover: " << r.baseline.dataset << "\n\n**Verdict: " << r.verdict << "**"
      << (r.named.empty() ? "" : " — named: " + yaml_list(r.named)) << "\n\n";
   md << "Baseline: the protocol without effects, every repeat with its specimen scale, finest resolution "
-     << r.baseline.finest_resolution << " (docs/discover.md). Took " << fmt::format("{:.0f} s", r.time_s) << ".\n\n";
+     << r.baseline.finest_resolution << " (docs/discovery.md). Took " << fmt::format("{:.0f} s", r.time_s) << ".\n\n";
   md << "## Gap per test\n\nAverage relative error (model.md §8) on " << r.gap_rows
      << ": the paper's model (before), with the named effects (after), and the noise floor (the mean |residual| "
-        "neither the baseline nor an effect explains, at its neutral values or fitted; docs/discover.md §2).\n\n| test | before | after | floor |\n|---|---|---|---|\n";
+        "neither the baseline nor an effect explains, at its neutral values or fitted; docs/discovery.md §2).\n\n| test | before | after | floor |\n|---|---|---|---|\n";
   for (const DiscoverGap& g : r.gap)
     md << "| " << g.test << " | " << cell(g.before) << " | " << cell(g.after) << " | " << cell(g.floor) << " |\n";
   md << "\n## Candidates\n\n| effect | status | score T (d) | p (calibrated) | p (iid) | error without → with | why "

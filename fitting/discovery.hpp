@@ -1,5 +1,5 @@
 #pragma once
-// `twill discover` (issue #16; docs/discover.md, docs/discover-design.md): where the paper's
+// `twill discover` (issue #16; docs/discovery.md, docs/discover-design.md): where the paper's
 // model and a dataset disagree, which registered effect explains it, and the gap before and
 // after adding it — or `none`, `tied: A|B (needs: …)` or `unexplained at <test, range>`.
 //
@@ -69,7 +69,7 @@ struct DiscoverCandidate {
 };
 
 /// Per test: the error of the paper's model, of the model with the named effects, and the
-/// noise floor (the mean |noise| the calibration fitted; docs/discover.md).
+/// noise floor (the mean |noise| the calibration fitted; docs/discovery.md).
 struct DiscoverGap {
   std::string test;
   double before = 0, after = 0, floor = 0;

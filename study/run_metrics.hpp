@@ -46,7 +46,7 @@ std::vector<std::pair<std::string, double>> fit_metrics(const nlohmann::json& re
 ///   time.total                               the simulation's wall time (s)
 std::vector<std::pair<std::string, double>> simulate_metrics(const nlohmann::json& result);
 
-/// What a study records of a `twill discover` run (its discover.json; docs/discover.md), so that
+/// What a study records of a `twill discover` run (its discover.json; docs/discovery.md), so that
 /// `twill report` averages over seeds are rates (papers/discovery):
 ///   verdict.named, verdict.none, verdict.tied,   1 for the run's verdict, 0 for the others
 ///   verdict.unexplained

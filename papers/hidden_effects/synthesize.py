@@ -17,6 +17,9 @@ effect library (effects/), so that fitting them back is not circular:
                    (twill's library: normal with spread s); the effect's spread_deg replaces
                    the spec's misalignment_deg (which every strip gets otherwise);
   poisson          a12 = r min(a11, a22) set in the truth's params, lateral strain columns;
+  yarn-damage      NOT in twill's library (issue #16's "mechanism outside the library"): the
+                   yarns stretched past an onset strain lose force progressively and do not
+                   heal on unloading (damage_factor);
   bending-anisotropy  a shell of another thickness per cantilever direction: the cantilever along
                    a direction with ratio b is simulated with tau sqrt(b) and the law's
                    stiffnesses over sqrt(b) (tau a and the membrane unchanged, the bending
@@ -62,6 +65,7 @@ EFFECT_KEYS = {
     "poisson": {"name", "coupling_ratio"},
     "misalignment": {"name", "spread_deg"},
     "bending-anisotropy": {"name", "warp_ratio", "weft_ratio"},
+    "yarn-damage": {"name", "onset_strain", "loss_per_strain", "largest_loss"},
     "none": {"name"},
 }
 SECONDS_PER_MINUTE = 60.0
@@ -114,6 +118,25 @@ def prony_response(path, times, ratios, relaxation_s):
             else:
                 states[i] += b - a
         out.append(sum(r * s for r, s in zip(ratios, states)))
+    return out
+
+
+def damage_factor(effect, angle_deg, extensions_mm, gauge_mm=75.0):
+    """Outside twill's library: progressive yarn breakage. The yarn family stretched most (mode
+    share max(c_warp, c_weft) of the strip strain) loses a share D = min(largest_loss,
+    loss_per_strain (k - onset_strain)+) of its force, k the largest such strain so far (damage
+    does not heal on unloading). The strip force is multiplied by 1 - D: a softening beyond the
+    onset that no stiffening curve, friction, overstress, offset, coupling or bending factor
+    makes."""
+    if effect.get("name") != "yarn-damage":
+        return [1.0] * len(extensions_mm)
+    c = mode_coefficients(angle_deg)
+    share = max(c[0], c[1])
+    largest, out = 0.0, []
+    for x in extensions_mm:
+        largest = max(largest, share * x / gauge_mm)
+        loss = effect["loss_per_strain"] * max(0.0, largest - effect["onset_strain"])
+        out.append(1.0 - min(effect["largest_loss"], loss))
     return out
 
 
@@ -247,6 +270,8 @@ def main():
                 x = schedule(test)
                 force, lateral = simulate(args.twill, params_path, test["angle_deg"] + offset, x, spec)
                 extra = path_force(effect, params, test["angle_deg"] + offset, x, rate)
+                kept = damage_factor(effect, test["angle_deg"] + offset, x)
+                force = [f * k for f, k in zip(force, kept)]
                 noisy = [scale * (f + e) + rng.gauss(0.0, spec.get("noise_N", 0.0) + spec.get("noise_relative", 0.0)
                                                      * abs(f + e)) for f, e in zip(force, extra)]
                 name = f"tensile/{label}-{r + 1}.csv"

@@ -13,6 +13,7 @@
 
 #include "core/params_io.hpp"
 #include "discretizations/catmull_clark_kl/catmull_clark_kl.hpp"
+#include "experiments/predictors.hpp"
 #include "experiments/tensile_strip.hpp"
 
 namespace twill {
@@ -97,6 +98,32 @@ TEST(TensileWarmStart, FailedGuessIsRetriedFromThePreviousEquilibrium) {
   EXPECT_FALSE(failed.completed);
   EXPECT_TRUE(failed.points.empty());
   EXPECT_NE(failed.message.find("extension 1.0"), std::string::npos) << failed.message;
+}
+
+// TensilePredictor across evaluations (an optimiser's): a warm run that stays within the
+// anchor's first-order prediction is kept; one that leaves it by more than 5 % of the run's
+// largest force is solved again from the flat strip, so the value at k is the loading path's
+// whatever point the predictor was anchored at before (path independence).
+TEST(TensileWarmStart, AWarmRunOffTheAnchorsPredictionIsSolvedAgainFromTheFlatStrip) {
+  const WarmStartCase c;
+  const std::vector<int> flat = {c.anchor.index_of("G12_Pa"), c.anchor.index_of("eta4.alpha[0]")};
+  const Eigen::VectorXd measured = Eigen::VectorXd::Ones(static_cast<Eigen::Index>(c.extensions_mm.size()));
+  const auto predictor = [&] { return TensilePredictor("bias", c.setup, c.factory, c.anchor, c.extensions_mm, measured, tight_solver()); };
+  MaterialParameters near = c.moved, far = c.anchor;
+  far.eta4.alpha[0] *= 4;  // the shear curve's exponent 20 → 80: the force is far from linear in it
+  Eigen::VectorXd values, cold, v;
+  Eigen::MatrixXd jacobian, j;
+  std::string message;
+
+  TensilePredictor warm = predictor();
+  ASSERT_TRUE(warm.predict(c.anchor, flat, &v, &j, &message)) << message;
+  ASSERT_TRUE(warm.predict(near, flat, &values, &jacobian, &message)) << message;  // an accepted step
+  EXPECT_EQ(warm.branch_retries(), 0);
+  ASSERT_TRUE(warm.predict(far, flat, &values, &jacobian, &message)) << message;
+  EXPECT_EQ(warm.branch_retries(), 1);
+  TensilePredictor fresh = predictor();
+  ASSERT_TRUE(fresh.predict(far, flat, &cold, &j, &message)) << message;
+  for (Eigen::Index i = 0; i < cold.size(); ++i) EXPECT_EQ(values[i], cold[i]) << i;
 }
 
 }  // namespace

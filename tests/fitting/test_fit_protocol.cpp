@@ -298,7 +298,7 @@ TEST(FitProtocolAsData, StartFromEvaluatesGivenParametersWithoutFitting) {
                                "}, {name: final-curves, warm_start: false}, {name: bend, fit_thickness: false, find_overhang: false}]");
   const Options evaluate = coarse_config(evaluate_overrides);
   const FitReport again = run_fit(dataset, evaluate, registry(), {});
-  // Curves with fit: false after it (twill discover's candidates, docs/discover.md): the fit's
+  // Curves with fit: false after it (twill discover's candidates, docs/discovery.md): the fit's
   // curves as the file holds them, nothing refitted; an effect of the config the file does not
   // hold joins at its configured (neutral) values.
   std::string held_curves = curves;
