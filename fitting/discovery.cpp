@@ -238,6 +238,10 @@ OptionSchema discover_config_schema() {
   d.add_bool("held_out", DiscoverOptions{}.held_out,
              "name an effect only if it also lowers the error of specimens its fit did not see (two folds; 4 more "
              "fits per passing candidate)");
+  d.add_int("screening_level", DiscoverOptions{}.screening_level,
+            "resolution level the candidates and held-out folds are fitted at (0: the coarsest; capped at the "
+            "baseline's finest); named effects are refitted at the baseline's finest level")
+      .range(0, 4);
   return schema;
 }
 
@@ -249,6 +253,7 @@ DiscoverOptions read_discover_options(const Options& config) {
   out.min_excess_shrink = d.get_double("min_excess_shrink");
   out.unexplained_ratio = d.get_double("unexplained_ratio");
   out.held_out = d.get_bool("held_out");
+  out.screening_level = static_cast<int>(d.get_int("screening_level"));
   return out;
 }
 
@@ -486,18 +491,20 @@ struct DiscoverWork {
   const Registry& registry;
   const FitProgress& progress;
   TemporaryDirectory scratch{"twill-discover-"};
-  int level = 0;  ///< the baseline's finest level: where every effect is fitted and evaluated
+  int level = 0;  ///< the screening level: where candidates and folds are fitted and evaluated
   std::map<size_t, MaterialParameters> fold_baselines = {};  ///< by the fitted fold's parity
 
   fs::path file(const std::string& name) const { return fs::path(scratch.path()) / name; }
 };
 
-// `effects` fitted from `start` (start-from + their effect-fit stages) on `dataset`.
+// `effects` fitted from `start` (start-from + their effect-fit stages) on `dataset` at `level`
+// (the screening level unless given).
 FitReport fit_effects_from(const DiscoverWork& work, const Dataset& dataset, const MaterialParameters& start,
-                           const std::vector<std::string>& effects, const std::string& what) {
+                           const std::vector<std::string>& effects, const std::string& what, int level = -1) {
   const std::string path = params_with_effects(start, {}, work.file(what + ".yaml"), work.registry);
-  return run_fit(dataset, effect_stages_config(work.fit, effects, path, work.level, true, work.registry), work.registry,
-                 prefixed(work.progress, what));
+  return run_fit(dataset,
+                 effect_stages_config(work.fit, effects, path, level < 0 ? work.level : level, true, work.registry),
+                 work.registry, prefixed(work.progress, what));
 }
 
 // Each testable candidate fitted alone from the baseline; its report kept by name for the refit.
@@ -532,8 +539,9 @@ const MaterialParameters& fold_baseline(DiscoverWork& work, size_t parity) {
   if (found != work.fold_baselines.end()) return found->second;
   const std::string what = fmt::format("fold {} baseline", parity + 1);
   if (work.progress) work.progress(0, "held-out check: " + what + " (the protocol without effects on that fold)");
-  const FitReport r = run_fit(specimen_fold(work.dataset, parity), with_effects(work.fit, {}, work.registry),
-                              work.registry, prefixed(work.progress, what));
+  Options fold = with_effects(work.fit, {}, work.registry);  // its ladder up to the screening level
+  apply_override(fold, fit_config_schema(), &work.registry, fmt::format("resolution.levels={}", work.level + 1));
+  const FitReport r = run_fit(specimen_fold(work.dataset, parity), fold, work.registry, prefixed(work.progress, what));
   return work.fold_baselines.emplace(parity, r.parameters).first->second;
 }
 
@@ -576,7 +584,13 @@ DiscoverResult run_discover(const Dataset& dataset, const Options& config, const
   if (progress) progress(0, "baseline: the protocol without effects, every repeat with its specimen scale");
   result.baseline = run_fit(dataset, fit, registry, prefixed(progress, "baseline"));
   DiscoverWork work{dataset, fit, registry, progress};
-  work.level = result.baseline.finest_level;
+  work.level = std::min(options.screening_level, result.baseline.finest_level);
+  result.screening_resolution = fmt::format("level {}, {} cells across", work.level,
+                                            fit.get_section("resolution").get_int("coarse_cells_across") << work.level);
+  if (progress)
+    progress(0, fmt::format("screening at {}; the baseline{} at {}", result.screening_resolution,
+                            work.level < result.baseline.finest_level ? " and the refit of named effects" : "",
+                            result.baseline.finest_resolution));
   std::map<std::string, FitReport> reports;
   fit_candidates(work, &result, &reports);
   judge_candidates(options, nullptr, &result);
@@ -585,10 +599,12 @@ DiscoverResult run_discover(const Dataset& dataset, const Options& config, const
       if (c.status == kNamed) c.held_out = held_out_check(work, c.name);
   judge_candidates(options, nullptr, &result);
   const std::vector<std::string> passing = with_status(result, kNamed);
-  if (passing.size() >= 2) {
-    if (progress) progress(0, "refit: " + yaml_list(passing) + " jointly, from the baseline");
-    result.refit = fit_effects_from(work, dataset, result.baseline.parameters, passing, "refit");
-    judge_candidates(options, &result.refit->effects, &result);
+  if (passing.size() >= 2 || (passing.size() == 1 && work.level < result.baseline.finest_level)) {
+    if (progress)
+      progress(0, fmt::format("refit: {}{}, from the baseline, at {}", yaml_list(passing), passing.size() > 1 ? " jointly" : "",
+                              result.baseline.finest_resolution));
+    result.refit = fit_effects_from(work, dataset, result.baseline.parameters, passing, "refit", result.baseline.finest_level);
+    if (passing.size() >= 2) judge_candidates(options, &result.refit->effects, &result);
   } else if (passing.size() == 1) {
     result.refit = reports.at(passing.front());
   }
@@ -667,6 +683,8 @@ json discover_json(const DiscoverResult& r, const Options& config) {
           {"candidates", candidates},
           {"alpha", config.get_section(kSection).get_double("alpha")},
           {"baseline_resolution", r.baseline.finest_resolution},
+          {"screening_resolution", r.screening_resolution},
+          {"refit_resolution", r.refit ? json(r.refit->effects.empty() ? "" : r.refit->effects.front().resolution) : json(nullptr)},
           {"notes", r.notes},
           {"time_s", r.time_s}};
 }
@@ -678,7 +696,10 @@ std::string discover_markdown(const DiscoverResult& r) {
   md << "# twill discover: " << r.baseline.dataset << "\n\n**Verdict: " << r.verdict << "**"
      << (r.named.empty() ? "" : " — named: " + yaml_list(r.named)) << "\n\n";
   md << "Baseline: the protocol without effects, every repeat with its specimen scale, finest resolution "
-     << r.baseline.finest_resolution << " (docs/discovery.md). Took " << fmt::format("{:.0f} s", r.time_s) << ".\n\n";
+     << r.baseline.finest_resolution << " (docs/discovery.md). Candidates and held-out folds screened at "
+     << r.screening_resolution;
+  if (r.refit && !r.refit->effects.empty()) md << "; named effects refitted at " << r.refit->effects.front().resolution;
+  md << ". Took " << fmt::format("{:.0f} s", r.time_s) << ".\n\n";
   md << "## Gap per test\n\nAverage relative error (model.md §8) on " << r.gap_rows
      << ": the paper's model (before), with the named effects (after), and the noise floor (the mean |residual| "
         "neither the baseline nor an effect explains, at its neutral values or fitted; docs/discovery.md §2).\n\n| test | before | after | floor |\n|---|---|---|---|\n";

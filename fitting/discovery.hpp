@@ -35,6 +35,9 @@ struct DiscoverOptions {
   double min_excess_shrink = 3;         ///< (before − floor) / (after − floor) a named effect reaches
   double unexplained_ratio = 2;         ///< a test whose baseline error exceeds this × its floor is a misfit
   bool held_out = true;                 ///< confirm on held-out specimens (two folds) before naming
+  /// The resolution level candidates and held-out folds are fitted at (capped at the baseline's
+  /// finest); named effects are refitted at the baseline's finest level.
+  int screening_level = 0;
 };
 
 /// The held-out check of a candidate (run_discover): two folds of the specimens (each fit test's
@@ -86,6 +89,7 @@ struct DiscoverResult {
   std::vector<DiscoverCandidate> candidates;
   FitReport baseline;
   std::optional<FitReport> refit;  ///< the fit with the named (or tied) effects
+  std::string screening_resolution;  ///< where the candidates and held-out folds were fitted
   std::vector<std::string> notes;
   double time_s = 0;
 };

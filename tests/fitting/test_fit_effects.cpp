@@ -459,7 +459,7 @@ TEST(FitWithEffects, AnEffectFitStageIsInactiveWithoutItsEffectAndRejectsUnknown
 // it the warp curve, fitted before the weft stage moved a22 (and the tied a12), misses the path
 // by 2.2 %, and discover rightly calls that `unexplained at warp` (measured). The statistics over seeds and effects are papers/discovery's; here the
 // workflow's decisions on one clear case each.
-Options discover_config() {
+Options discover_config(const std::vector<std::string>& extra = {}) {
   const OptionSchema schema = discover_config_schema();
   Options config = default_options(schema, &registry());
   apply_overrides(config, schema, &registry(),
@@ -468,17 +468,19 @@ Options discover_config() {
                    " {name: tensile-curve, label: weft, angle_deg: 0, term: eta3, max_degree: 1},"
                    " {name: tensile-curve, label: bias, angle_deg: 45, term: eta4, max_degree: 1},"
                    " {name: resolution-ladder}, {name: effect-fit, effect: hysteresis}]"});
+  apply_overrides(config, schema, &registry(), extra);
   return config;
 }
 
-DiscoverResult discover_on(const std::string& name, const ComponentChoice& effect) {
+DiscoverResult discover_on(const std::string& name, const ComponentChoice& effect,
+                           const std::vector<std::string>& extra = {}) {
   const std::vector<double> offsets = {0.0, 0.0, 0.0}, scales = {1.12, 0.93, 0.96};
   constexpr double kNoise = 0.005;
   const std::string folder = write_dataset(name, truth_with(effect),
                                            {{"warp", 90, 300, up_and_down(), offsets, scales, kNoise, 1},
                                             {"weft", 0, 300, up_and_down(), offsets, scales, kNoise, 2},
                                             {"bias", 45, 300, up_and_down(), offsets, scales, kNoise, 3}});
-  DiscoverResult result = run_discover(read_dataset(folder), discover_config(), registry(), {});
+  DiscoverResult result = run_discover(read_dataset(folder), discover_config(extra), registry(), {});
   fs::remove_all(folder);
   for (const DiscoverCandidate& c : result.candidates)
     std::printf("[measured] discover %s: %s %s (%s)\n", name.c_str(), c.name.c_str(), c.status.c_str(),
