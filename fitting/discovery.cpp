@@ -190,14 +190,28 @@ void resolve_joint(const std::vector<FitEffect>& joint, double threshold, Discov
 bool stable_over_folds(const std::vector<FitEffectParameter>& fitted, const DiscoverHeldOut& held_out, std::string* why) {
   // Off neutral: further from it than round-off of the optimiser's scaled unknowns.
   constexpr double kOffNeutral = 1e-9;
-  for (size_t i = 0; i < fitted.size(); ++i) {
-    const FitEffectParameter& p = fitted[i];
-    const double side = p.value - p.neutral;
-    if (std::abs(side) <= kOffNeutral * std::max(1.0, std::abs(p.neutral))) continue;
-    for (size_t f = 0; f < held_out.folds.size(); ++f) {
-      if (i >= held_out.folds[f].size() || (held_out.folds[f][i].value - p.neutral) * side > 0) continue;
-      *why = fmt::format("{} is {:.4g} fitted on all specimens but {:.4g} on fold {} (neutral {:g})", p.name, p.value,
-                         held_out.folds[f][i].value, f + 1, p.neutral);
+  const auto off = [&](const FitEffectParameter& p, double value) {
+    return std::abs(value - p.neutral) > kOffNeutral * std::max(1.0, std::abs(p.neutral));
+  };
+  // A fold is unstable when none of the parameters the full fit moved keeps its side there: the
+  // effect vanishes or turns round on that half of the specimens. One parameter falling back
+  // to neutral is not (measured: a generator's shear friction of 5 N/m, fitted 23 N/m on all
+  // specimens and 0 on one fold, while the warp and weft frictions agreed within 8 %).
+  for (size_t f = 0; f < held_out.folds.size(); ++f) {
+    bool moved = false, kept = false;
+    std::string first;
+    for (size_t i = 0; i < fitted.size() && i < held_out.folds[f].size(); ++i) {
+      const FitEffectParameter& p = fitted[i];
+      if (!off(p, p.value)) continue;
+      moved = true;
+      const double v = held_out.folds[f][i].value;
+      if ((v - p.neutral) * (p.value - p.neutral) > 0 && off(p, v)) kept = true;
+      else if (first.empty())
+        first = fmt::format("{} is {:.4g} fitted on all specimens but {:.4g} on fold {} (neutral {:g})", p.name, p.value, v,
+                            f + 1, p.neutral);
+    }
+    if (moved && !kept) {
+      *why = first + ", and no other parameter keeps its side there";
       return false;
     }
   }

@@ -52,9 +52,10 @@ struct DiscoverHeldOut {
   std::vector<std::vector<FitEffectParameter>> folds = {};
 };
 
-/// Whether every parameter the fit moved off its neutral value stays on that side of it in each
-/// fold (the effect points the same way on either half of the specimens); `why` names the
-/// first that does not. True when there are no folds.
+/// Whether the effect keeps its direction on each fold: in every fold's fit some parameter the
+/// fit on all specimens moved off its neutral value stays off it on the same side (the effect
+/// neither vanishes nor turns round on half of the specimens); `why` names the fold that fails.
+/// True when there are no folds.
 bool stable_over_folds(const std::vector<FitEffectParameter>& fitted, const DiscoverHeldOut& held_out, std::string* why);
 
 /// A candidate's statuses and the verdicts' kinds (a verdict starts with its kind): the one list
