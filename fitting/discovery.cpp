@@ -54,6 +54,12 @@ std::string needs_to_separate(const std::string& a, const std::string& b) {
                                           : "held-out observations that one of them predicts and the other does not";
 }
 
+// The registered effect `name` at its neutral values (its schema defaults: the paper's model).
+ComponentChoice neutral_effect(const std::string& name, const Registry& registry) {
+  const RegistryCategory* effects = registry.find_category(registry_category::kEffect);
+  return {registry_category::kEffect, name, default_options(effects->at(name).options, &registry)};
+}
+
 bool has_effect_fit_stage(const Options& fit_config, const std::string& effect) {
   for (const ComponentChoice& stage : fit_config.get_component_list("protocol"))
     if (stage.name == kEffectFitStage && stage.options.get_string("effect") == effect) return true;
@@ -280,7 +286,7 @@ std::vector<DiscoverCandidate> audit_candidates(const Dataset& dataset, const Op
   std::vector<DiscoverCandidate> out;
   for (const std::string& name : names) {
     DiscoverCandidate c{name, "", "", std::nullopt, {}};
-    const ComponentChoice choice{registry_category::kEffect, name, default_options(effects->at(name).options, &registry)};
+    const ComponentChoice choice = neutral_effect(name, registry);
     const std::string missing = registry.create<EffectFactories>(registry_category::kEffect, choice)->missing_data(dataset);
     if (!missing.empty()) {
       constexpr std::string_view kNeeds = "needs ";  // the predicates say "needs …"
@@ -477,10 +483,9 @@ Options effect_stages_config(const Options& fit, const std::vector<std::string>&
 // neutral values where it holds none of them.
 std::string params_with_effects(MaterialParameters params, const std::vector<std::string>& effects, const fs::path& file,
                                 const Registry& registry) {
-  const RegistryCategory* category = registry.find_category(registry_category::kEffect);
   for (const std::string& effect : effects)
     if (std::none_of(params.effects.begin(), params.effects.end(), [&](const ComponentChoice& c) { return c.name == effect; }))
-      params.effects.push_back({registry_category::kEffect, effect, default_options(category->at(effect).options, &registry)});
+      params.effects.push_back(neutral_effect(effect, registry));
   write_params_file(params, file.string());
   return file.string();
 }

@@ -3,20 +3,21 @@
 // model and a dataset disagree, which registered effect explains it, and the gap before and
 // after adding it — or `none`, `tied: A|B (needs: …)` or `unexplained at <test, range>`.
 //
-// The workflow, each step a fit of the protocol (fitting/fit_protocol.hpp) with a different
-// `effects` list:
+// The workflow, each step a fit (fitting/fit_protocol.hpp) with a different `effects` list:
 //   1. audit: every candidate effect's data predicate (Effect::missing_data) and an effect-fit
 //      stage for it in the protocol; without either it is `untestable (needs: …)`;
 //   2. baseline: the protocol with no effect, every repeat fitted with its specimen scale
 //      (`repeats.rule: all`, `repeats.scale: per-run`: the scatter between specimens is the
 //      noise floor, docs/discover-design.md §1);
-//   3. per testable candidate: the protocol with that effect on; its effect-fit stage gives the
-//      error without and with it, per test, the calibrated score test at its neutral values
-//      and the noise floor (core/score_test.hpp);
+//   3. per testable candidate: from the baseline's parameters (start-from, the curves as
+//      they stand), its effect-fit stage alone at the screening level; it gives the error
+//      without and with it, per test, the calibrated score test at its neutral values and the
+//      noise floor (core/score_test.hpp); passing ones are checked on held-out specimen folds;
 //   4. judge (judge_candidates below): a candidate passes when its calibrated p-value is below
 //      α / (candidates tested) and the misfit in excess of the floor shrinks by at least
 //      `min_excess_shrink`; several passing are refitted jointly, and one whose score is no
-//      longer significant after the others is `tied` with the one that explained it.
+//      longer significant after the others is `tied` with the one that explained it; named
+//      effects are refitted from the baseline at its finest level.
 #include <optional>
 #include <string>
 #include <vector>

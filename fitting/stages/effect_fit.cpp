@@ -443,12 +443,14 @@ class EffectFit final : public FitStage {
     return FitContext::resolution_text(s.cells_across, s.cells_along);
   }
 
-  // The parameters so far with the effect at its neutral values (the schema defaults).
+  // The effect's options at its neutral values (the schema defaults: the paper's model).
+  static Options neutral_options(const FitContext& context, const std::string& effect) {
+    return default_options(context.registry().find_category(registry_category::kEffect)->at(effect).options, nullptr);
+  }
+
   // The effect's parameters as fitted, each with its neutral value beside it.
   static void record_parameters(const FitContext& context, const ComponentChoice& fitted, FitEffect* result) {
-    const ComponentChoice neutral{fitted.category, fitted.name,
-                                  default_options(context.registry().find_category(registry_category::kEffect)->at(fitted.name).options,
-                                                  nullptr)};
+    const ComponentChoice neutral{fitted.category, fitted.name, neutral_options(context, fitted.name)};
     const std::vector<EffectParameter> at_neutral = effect_parameters({neutral}, context.registry());
     const std::vector<EffectParameter> values = effect_parameters({fitted}, context.registry());
     for (size_t i = 0; i < values.size(); ++i)
@@ -456,12 +458,12 @@ class EffectFit final : public FitStage {
                                     i < at_neutral.size() ? at_neutral[i].value : 0.0});
   }
 
+  // The parameters so far with the effect at its neutral values.
   static MaterialParameters neutral_params(const FitContext& context, const ComponentChoice& configured) {
     MaterialParameters neutral = context.params;
     for (ComponentChoice& c : neutral.effects)
       if (c.name == configured.name)
-        c.options = default_options(context.registry().find_category(registry_category::kEffect)->at(c.name).options,
-                                    nullptr);
+        c.options = neutral_options(context, c.name);
     return neutral;
   }
 
