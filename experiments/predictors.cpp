@@ -73,6 +73,15 @@ void read_curve(const TensileCurve& curve, bool force, Eigen::VectorXd* values, 
   }
 }
 
+// The anchor's state moved to first order, q + ∂q/∂k Δk. With no free parameters (an
+// effect-only stage: the curves held, the effect's parameters outside k's flat vector) the
+// anchor kept no ∂q/∂k (0×0), and the guess is the anchor's state itself; the shapes are
+// checked, not assumed — a 0-row product added to q reads past its end in a Release build.
+Eigen::VectorXd first_order_guess(const Eigen::VectorXd& q, const Eigen::MatrixXd& dq_dk, const Eigen::VectorXd& dk) {
+  if (dk.size() == 0 || dq_dk.rows() != q.size() || dq_dk.cols() != dk.size()) return q;
+  return q + dq_dk * dk;
+}
+
 }  // namespace
 
 bool TensilePredictor::predict(const MaterialParameters& k, const std::vector<int>& flat,
@@ -96,9 +105,7 @@ bool TensilePredictor::predict(const MaterialParameters& k, const std::vector<in
     for (size_t j = 0; j < anchor_flat_.size(); ++j)
       dk[static_cast<Eigen::Index>(j)] = k_flat[anchor_flat_[j]] - anchor_k_[anchor_flat_[j]];
     std::vector<Eigen::VectorXd> guesses(anchor_q_.size());
-    for (size_t i = 0; i < anchor_q_.size(); ++i)
-      guesses[i] = anchor_dq_[i].cols() == dk.size() ? Eigen::VectorXd(anchor_q_[i] + anchor_dq_[i] * dk)
-                                                     : anchor_q_[i];
+    for (size_t i = 0; i < anchor_q_.size(); ++i) guesses[i] = first_order_guess(anchor_q_[i], anchor_dq_[i], dk);
     curve = experiment_.run_from(extensions_mm_, guesses);
     if (!curve.completed) {
       // The warm start is only an acceleration: a first-order guess from a distant anchor (an
