@@ -16,6 +16,7 @@
 #include "core/temporary_directory.hpp"
 #include "effects/effect.hpp"
 #include "fitting/fit_config.hpp"
+#include "fitting/fit_context.hpp"
 
 namespace twill {
 
@@ -43,6 +44,11 @@ const std::map<std::pair<std::string, std::string>, std::string>& separating_dat
       {{"hysteresis", "rate-dependence"}, "runs of one test at two or more crosshead speeds (a rate loop narrows "
                                           "at the slower speed, a friction loop does not)"},
       {{"misalignment", "specimen scale"}, "lateral strain or a shear-angle measurement of each strip"},
+      {{"curve-degree", "hysteresis"}, "unloading rows (an elastic curve unloads along its loading path)"},
+      {{"curve-degree", "rate-dependence"}, "runs of one test at two or more crosshead speeds"},
+      {{"curve-degree", "poisson"}, "lateral strain columns"},
+      {{"curve-degree", "misalignment"}, "lateral strain or a shear-angle measurement of each strip"},
+      {{"bending-anisotropy", "curve-degree"}, "cantilevers along warp and weft"},
   };
   return table;
 }
@@ -123,6 +129,16 @@ void judge_one(const DiscoverOptions& options, double threshold, double floor, D
   const bool shrinks = std::isfinite(floor) && excess_shrinks(e, floor, options.min_excess_shrink, &gain);
   if (!std::isfinite(floor)) gain = fmt::format("error {:.2f} % → {:.2f} %, no noise floor measured",
                                                 100 * e.error_without, 100 * e.error_with);
+  if (c->name == kCurveDegreeCandidate) {
+    // An elastic curve: no score test (its new exponent is not identified at zero weight); it
+    // passes on the shrink alone, on the effects' own rows (unloading, both speeds, lateral
+    // strain), which it cannot fit where the misfit is physics.
+    c->status = shrinks ? kNamed : kRejected;
+    c->reason = gain + (shrinks ? "; a richer elastic curve explains the misfit"
+                                : fmt::format(": the excess over the floor shrank less than {:g}-fold",
+                                              options.min_excess_shrink));
+    return;
+  }
   if (!std::isfinite(e.score)) {
     // A per-run effect (misalignment's offsets) has no score test: whatever its offsets explain,
     // a specimen scale per run explains by moving the whole curve too.
@@ -188,6 +204,23 @@ void resolve_joint(const std::vector<FitEffect>& joint, double threshold, Discov
                                   needs_to_separate(earlier.front(), e.effect)));
     }
     earlier.push_back(e.effect);
+  }
+}
+
+// A richer elastic curve that explains the misfit as well as a passing effect leaves the data
+// unable to tell physics from curve shape: both are tied.
+void resolve_curve_degree(DiscoverResult* result, std::vector<std::string>* ties) {
+  auto degree = std::find_if(result->candidates.begin(), result->candidates.end(), [](const DiscoverCandidate& c) {
+    return c.name == kCurveDegreeCandidate && c.status == kNamed;
+  });
+  if (degree == result->candidates.end()) return;
+  for (DiscoverCandidate& c : result->candidates) {
+    if (c.name == kCurveDegreeCandidate || c.status != kNamed) continue;
+    c.status = kTied;
+    c.reason += "; a richer elastic curve explains the same misfit";
+    degree->status = kTied;
+    ties->push_back(fmt::format("tied: {}|{} (needs: {})", c.name, kCurveDegreeCandidate,
+                                needs_to_separate(c.name, kCurveDegreeCandidate)));
   }
 }
 
@@ -262,6 +295,9 @@ OptionSchema discover_config_schema() {
             "resolution level the candidates and held-out folds are fitted at (0: the coarsest; capped at the "
             "baseline's finest); named effects are refitted at the baseline's finest level")
       .range(0, 4);
+  d.add_bool("curve_degree", DiscoverOptions{}.curve_degree,
+             "test a richer elastic curve (every fitted tensile curve one degree higher) as the candidate "
+             "`curve-degree`: an effect it explains as well is tied with it");
   return schema;
 }
 
@@ -274,6 +310,7 @@ DiscoverOptions read_discover_options(const Options& config) {
   out.unexplained_ratio = d.get_double("unexplained_ratio");
   out.held_out = d.get_bool("held_out");
   out.screening_level = static_cast<int>(d.get_int("screening_level"));
+  out.curve_degree = d.get_bool("curve_degree");
   return out;
 }
 
@@ -298,6 +335,15 @@ std::vector<DiscoverCandidate> audit_candidates(const Dataset& dataset, const Op
     }
     out.push_back(std::move(c));
   }
+  if (options.curve_degree) {
+    DiscoverCandidate c{kCurveDegreeCandidate, "", "", std::nullopt, {}};
+    const std::vector<ComponentChoice> protocol = fit_config.get_component_list("protocol");
+    if (std::none_of(protocol.begin(), protocol.end(), [](const ComponentChoice& s) { return s.name == kTensileCurveStage; })) {
+      c.status = kUntestable;
+      c.reason = "needs: a tensile-curve stage in the protocol";
+    }
+    out.push_back(std::move(c));
+  }
   return out;
 }
 
@@ -305,15 +351,16 @@ void judge_candidates(const DiscoverOptions& options, const std::vector<FitEffec
   result->named.clear();
   const auto floors = floors_by_test(result->candidates);
   int tested = 0;
-  for (const DiscoverCandidate& c : result->candidates) tested += c.effect.has_value();
+  for (const DiscoverCandidate& c : result->candidates) tested += c.effect && std::isfinite(c.effect->score);
   const double threshold = options.alpha / std::max(tested, 1);
   for (DiscoverCandidate& c : result->candidates)
     if (c.effect) judge_one(options, threshold, candidate_floor(*c.effect, floors), &c);
   std::vector<std::string> ties;
   if (joint) resolve_joint(*joint, threshold, result, &ties);
+  resolve_curve_degree(result, &ties);
   for (const DiscoverCandidate& c : result->candidates) {
     if (c.status == kNamed) result->named.push_back(c.name);
-    if (c.status == kTied && !c.effect->tests.empty() && !std::isfinite(c.effect->score))
+    if (c.status == kTied && c.name != kCurveDegreeCandidate && !c.effect->tests.empty() && !std::isfinite(c.effect->score))
       ties.push_back(fmt::format("tied: {}|specimen scale (needs: {})", c.name, needs_to_separate(c.name, "specimen scale")));
   }
   if (!ties.empty())
@@ -363,7 +410,12 @@ void measure_gap(const DiscoverResult& result, const std::map<std::string, doubl
   std::vector<const FitEffect*> records;
   if (result.refit)
     for (const FitEffect& e : result.refit->effects) records.push_back(&e);
-  if (records.empty()) {
+  if (records.empty() && !result.named.empty())
+    for (const DiscoverCandidate& c : result.candidates)
+      if (c.effect && c.status == kNamed) records.push_back(&*c.effect);
+  if (!records.empty() && (!result.refit || result.refit->effects.empty())) {
+    *rows = "the rows of " + records.front()->effect + "'s record";
+  } else if (records.empty()) {
     const FitEffect* most = nullptr;
     for (const DiscoverCandidate& c : result.candidates)
       if (c.effect && (!most || c.effect->points > most->points)) most = &*c.effect;
@@ -448,6 +500,13 @@ bool has_repeats(const Dataset& dataset) {
   return false;
 }
 
+ComponentChoice start_from_stage(const std::string& params_path, const Registry& registry) {
+  const RegistryCategory* stages = registry.find_category(registry_category::kStage);
+  ComponentChoice start{registry_category::kStage, "start-from", default_options(stages->at("start-from").options, &registry)};
+  start.options.set("params", params_path);
+  return start;
+}
+
 // `fit` with `effects` on and a protocol of three parts: start-from `params_path`; the
 // protocol's tensile-curve stages with `fit: false` (the curves as the file holds them, free in
 // the effect-fit stages); the protocol's effect-fit stages of `effects` (in its order) at
@@ -458,10 +517,7 @@ bool has_repeats(const Dataset& dataset) {
 Options effect_stages_config(const Options& fit, const std::vector<std::string>& effects, const std::string& params_path,
                              int level, bool fit_effects, const Registry& registry) {
   Options config = with_effects(fit, effects, registry);
-  const RegistryCategory* stages = registry.find_category(registry_category::kStage);
-  ComponentChoice start{registry_category::kStage, "start-from", default_options(stages->at("start-from").options, &registry)};
-  start.options.set("params", params_path);
-  std::vector<ComponentChoice> protocol = {start};
+  std::vector<ComponentChoice> protocol = {start_from_stage(params_path, registry)};
   for (ComponentChoice stage : fit.get_component_list("protocol")) {
     if (stage.name == kTensileCurveStage) {
       stage.options.set("fit", false);
@@ -529,7 +585,7 @@ FitReport fit_effects_from(const DiscoverWork& work, const Dataset& dataset, con
 // Each testable candidate fitted alone from the baseline; its report kept by name for the refit.
 void fit_candidates(const DiscoverWork& work, DiscoverResult* result, std::map<std::string, FitReport>* reports) {
   for (DiscoverCandidate& c : result->candidates) {
-    if (!c.status.empty()) continue;
+    if (!c.status.empty() || c.name == kCurveDegreeCandidate) continue;  // not an effect: fit_curve_degree
     const auto t = Clock::now();
     if (work.progress) work.progress(0, "candidate " + c.name + ": fitting it with the curves, from the baseline");
     try {
@@ -548,6 +604,94 @@ void fit_candidates(const DiscoverWork& work, DiscoverResult* result, std::map<s
                                    std::isfinite(c.effect->score) ? fmt::format("calibrated p {:.2g}", c.effect->score_p_value)
                                                                   : std::string("no score test"),
                                    std::chrono::duration<double>(Clock::now() - t).count()));
+  }
+}
+
+// The protocol's tensile-curve stages refitted from `params_path` one degree above `baseline`'s
+// curves at the screening level, the raise tried whatever the error: curve-degree's fit.
+Options raised_curves_config(const DiscoverWork& work, const MaterialParameters& baseline, const std::string& params_path) {
+  constexpr double kRaiseAlways = 1e-9;  // a target error no curve reaches: the raise is tried
+  Options config = with_effects(work.fit, {}, work.registry);
+  std::vector<ComponentChoice> protocol = {start_from_stage(params_path, work.registry)};
+  for (ComponentChoice stage : work.fit.get_component_list("protocol")) {
+    if (stage.name != kTensileCurveStage) continue;
+    const Curve& curve = baseline.*(membrane_term(stage.options.get_string("term")).curve_member);
+    stage.options.set("max_degree", std::int64_t{std::min(curve.degree() + 1, kMaxCurveDegree)});
+    stage.options.set("target_error", kRaiseAlways);
+    stage.options.set("min_improvement", 0.0);
+    stage.options.set("level", std::int64_t{work.level});
+    protocol.push_back(std::move(stage));
+  }
+  config.set("protocol", protocol);
+  apply_override(config, fit_config_schema(), &work.registry, fmt::format("resolution.levels={}", work.level + 1));
+  return config;
+}
+
+// The rows that measure curve-degree: those of the tested effect fitted on the most points among
+// the ones with a score test (the whole path, both speeds, lateral strain: what they need).
+const DiscoverCandidate* measuring_candidate(const DiscoverResult& result) {
+  const DiscoverCandidate* most = nullptr;
+  for (const DiscoverCandidate& c : result.candidates)
+    if (c.effect && std::isfinite(c.effect->score) && (!most || c.effect->points > most->effect->points)) most = &c;
+  return most;
+}
+
+// `params`' errors on `measure`'s rows, each run at its own best scale (effect-fit `fit: false`).
+FitEffect rows_error(const DiscoverWork& work, const MaterialParameters& params, const std::string& measure,
+                     const std::string& what) {
+  const std::string path = params_with_effects(params, {measure}, work.file(what + ".yaml"), work.registry);
+  const FitReport r = run_fit(work.dataset, effect_stages_config(work.fit, {measure}, path, work.level, false, work.registry),
+                              work.registry, {});
+  const FitEffect* e = record_of(r.effects, measure);
+  if (!e) throw std::logic_error("the evaluation on " + measure + "'s rows ran no effect-fit stage");
+  return *e;
+}
+
+// curve-degree's record: the errors of the baseline and of the raised curves on the same rows,
+// and each curve's degree (neutral: the baseline's).
+FitEffect curve_degree_record(const FitEffect& without, const FitEffect& with, const MaterialParameters& baseline,
+                              const MaterialParameters& raised) {
+  FitEffect e = with;
+  e.effect = kCurveDegreeCandidate;
+  e.error_without = without.error_with;
+  e.score = e.score_p_value = e.score_p_value_iid = std::numeric_limits<double>::quiet_NaN();
+  e.curves.clear();
+  e.parameters.clear();
+  for (size_t i = 0; i < e.tests.size() && i < without.tests.size(); ++i) {
+    e.tests[i].error_without = without.tests[i].error_with;
+    e.tests[i].noise_floor = std::numeric_limits<double>::quiet_NaN();
+  }
+  for (const MembraneTerm& term : membrane_terms())
+    e.parameters.push_back({term.curve + ".degree", "", static_cast<double>((raised.*(term.curve_member)).degree()), 1,
+                            static_cast<double>(kMaxCurveDegree), static_cast<double>((baseline.*(term.curve_member)).degree())});
+  return e;
+}
+
+// The curve-degree candidate, after the effects (their rows measure it).
+void fit_curve_degree(const DiscoverWork& work, DiscoverResult* result, std::map<std::string, FitReport>* reports) {
+  const auto c = std::find_if(result->candidates.begin(), result->candidates.end(), [](const DiscoverCandidate& d) {
+    return d.name == kCurveDegreeCandidate && d.status.empty();
+  });
+  if (c == result->candidates.end()) return;
+  const DiscoverCandidate* measure = measuring_candidate(*result);
+  if (!measure) {
+    c->status = kUntestable;
+    c->reason = "needs: a tested effect with a score test, whose rows measure it";
+    return;
+  }
+  if (work.progress) work.progress(0, "candidate curve-degree: every fitted curve one degree higher, on " + measure->name + "'s rows");
+  try {
+    const MaterialParameters& baseline = result->baseline.parameters;
+    const std::string start = params_with_effects(baseline, {}, work.file("curve-degree-start.yaml"), work.registry);
+    FitReport raised = run_fit(work.dataset, raised_curves_config(work, baseline, start), work.registry,
+                               prefixed(work.progress, kCurveDegreeCandidate));
+    c->effect = curve_degree_record(rows_error(work, baseline, measure->name, "curve-degree-without"),
+                                    rows_error(work, raised.parameters, measure->name, "curve-degree-with"), baseline,
+                                    raised.parameters);
+    (*reports)[kCurveDegreeCandidate] = std::move(raised);
+  } catch (const std::exception& e) {
+    c->status = kFailed;
+    c->reason = std::string("the fit with it failed: ") + e.what();
   }
 }
 
@@ -612,13 +756,17 @@ DiscoverResult run_discover(const Dataset& dataset, const Options& config, const
                             result.baseline.finest_resolution));
   std::map<std::string, FitReport> reports;
   fit_candidates(work, &result, &reports);
+  fit_curve_degree(work, &result, &reports);
   judge_candidates(options, nullptr, &result);
   if (options.held_out)
     for (DiscoverCandidate& c : result.candidates)
-      if (c.status == kNamed) c.held_out = held_out_check(work, c.name);
+      if (c.status == kNamed && c.name != kCurveDegreeCandidate) c.held_out = held_out_check(work, c.name);
   judge_candidates(options, nullptr, &result);
   const std::vector<std::string> passing = with_status(result, kNamed);
-  if (passing.size() >= 2 || (passing.size() == 1 && work.level < result.baseline.finest_level)) {
+  if (passing == std::vector<std::string>{kCurveDegreeCandidate}) {
+    result.refit = reports.at(kCurveDegreeCandidate);
+    result.notes.push_back("the named richer curves are those of the screening level (curve-degree is not refitted at the finest)");
+  } else if (passing.size() >= 2 || (passing.size() == 1 && work.level < result.baseline.finest_level)) {
     if (progress)
       progress(0, fmt::format("refit: {}{}, from the baseline, at {}", yaml_list(passing), passing.size() > 1 ? " jointly" : "",
                               result.baseline.finest_resolution));

@@ -39,7 +39,14 @@ struct DiscoverOptions {
   /// The resolution level candidates and held-out folds are fitted at (capped at the baseline's
   /// finest); named effects are refitted at the baseline's finest level.
   int screening_level = 0;
+  /// Test a richer elastic curve (every fitted tensile curve one degree higher) as a candidate
+  /// of its own, `curve-degree` (kCurveDegreeCandidate).
+  bool curve_degree = true;
 };
+
+/// The candidate that is not an effect: the paper's curves one degree higher (a richer curve
+/// must not pass for physics, nor physics for a richer curve; docs/discovery.md).
+inline constexpr const char* kCurveDegreeCandidate = "curve-degree";
 
 /// The held-out check of a candidate (run_discover): two folds of the specimens (each fit test's
 /// runs of even and of odd index), each fitted without and with the effect and evaluated on the

@@ -73,6 +73,9 @@ struct MembraneTerm {
   /// as stiff as the warp; eta4: 0.01, the shear of a stiff-yarn weave; eta1 needs its test).
   double fraction_of_a11_without_test;
 };
+/// The highest degree a tensile-curve stage raises a curve to (its max_degree's range).
+inline constexpr int kMaxCurveDegree = 6;
+
 /// eta1 (warp stretch), eta3 (weft stretch), eta4 (shear): the terms a strip test identifies.
 const std::vector<MembraneTerm>& membrane_terms();
 const MembraneTerm& membrane_term(const std::string& curve);

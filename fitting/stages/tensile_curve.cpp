@@ -49,7 +49,7 @@ OptionBindings<TensileCurveOptions> tensile_curve_bindings() {
       choice_option<S>("term", &S::term, term_names(),
                        "the term of psi it fits; free: its stiffness and curve (eta1: a11_Pa, eta1.*; eta3: a22_Pa, "
                        "eta3.*; eta4: G12_Pa, eta4.*)"),
-      integer_option<S>("max_degree", &S::max_degree, "highest curve degree (paper §5.4)", in_range(1, 6)),
+      integer_option<S>("max_degree", &S::max_degree, "highest curve degree (paper §5.4)", in_range(1, kMaxCurveDegree)),
       real_option<S>("target_error", &S::target_error, "stop raising the degree below this average relative error",
                      greater_than(0.0)),
       real_option<S>("min_improvement", &S::min_improvement,
@@ -159,13 +159,15 @@ class TensileCurveStage final : public FitStage {
       }
       if (!raised_result.ok) break;
       const double improvement = 1.0 - raised_result.error / best_result.error;
-      if (improvement >= kNegligibleImprovement) {
-        best = raised;
-        best_result = raised_result;
-      } else if (improvement > 0) {
-        context.note(fmt::format("{}: degree {} improved the error by {:.3f} % only: not kept", stage_.label, degree,
-                                 100 * improvement));
+      if (improvement < kNegligibleImprovement) {
+        // Not kept, so the next pass would try the same raise from the same curve: stop here
+        // whatever min_improvement says (at min_improvement 0 this looped for ever).
+        context.note(fmt::format("{}: degree {} improved the error by {:.3f} % only: not kept, stop", stage_.label,
+                                 degree, 100 * improvement));
+        break;
       }
+      best = raised;
+      best_result = raised_result;
       if (improvement < min_improvement) {
         context.note(fmt::format("{}: raising to degree {} improved the error by {:.0f} % (< {:.0f} %): stop",
                                  stage_.label, degree, 100 * improvement, 100 * min_improvement));

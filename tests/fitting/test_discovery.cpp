@@ -114,5 +114,22 @@ TEST(DiscoverJudge, TwoEffectsExplainingTheSameMisfitAreTied) {
   EXPECT_EQ(judged(both, &joint).named.size(), 2u);
 }
 
+TEST(DiscoverJudge, ARicherCurveThatExplainsTheMisfitTooIsTiedWithTheEffect) {
+  // curve-degree has no score test: it passes on the shrink alone, and alone it is named.
+  DiscoverCandidate curve = fitted(kCurveDegreeCandidate, std::numeric_limits<double>::quiet_NaN(), 0.08, 0.012);
+  const DiscoverResult alone = judged({curve, fitted("hysteresis", 0.4, 0.08, 0.08)});
+  EXPECT_EQ(alone.named, std::vector<std::string>{kCurveDegreeCandidate});
+  EXPECT_EQ(alone.verdict, "named");
+  // Beside an effect that passes too, the data cannot tell physics from curve shape.
+  const DiscoverResult both = judged({fitted("hysteresis", 1e-4, 0.08, 0.012), curve});
+  EXPECT_TRUE(both.named.empty());
+  EXPECT_EQ(both.candidates[0].status, "tied");
+  EXPECT_EQ(both.candidates[1].status, "tied");
+  EXPECT_EQ(both.verdict.rfind("tied: hysteresis|curve-degree (needs: unloading rows", 0), 0u) << both.verdict;
+  // A curve that does not shrink the excess threefold is no rival.
+  curve.effect->error_with = curve.effect->tests[0].error_with = curve.effect->tests[1].error_with = 0.05;
+  EXPECT_EQ(judged({fitted("hysteresis", 1e-4, 0.08, 0.012), curve}).named, std::vector<std::string>{"hysteresis"});
+}
+
 }  // namespace
 }  // namespace twill

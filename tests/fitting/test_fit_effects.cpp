@@ -5,6 +5,7 @@
 // report carries the effect's table and params.yaml its parameters.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -532,6 +533,32 @@ TEST(Discover, NamesHiddenHysteresisAndShowsTheGapShrink) {
   EXPECT_EQ(candidate(r, "bending-anisotropy").status, "untestable");
   EXPECT_EQ(candidate(r, "misalignment").status, "untestable");
   EXPECT_NE(candidate(r, "misalignment").reason.find("effect-fit stage"), std::string::npos);
+  // A richer elastic curve cannot open the loop: it is no rival to the friction.
+  EXPECT_EQ(candidate(r, kCurveDegreeCandidate).status, "rejected") << candidate(r, kCurveDegreeCandidate).reason;
+}
+
+// A richer elastic curve is a candidate of its own (discover.curve_degree): on data whose warp
+// curve is degree 2 and no effect is on, the tiny protocol's degree-1 curves leave a misfit;
+// one degree more explains it, and no effect may be named for it.
+TEST(Discover, ARicherCurveIsNotPassedOffAsPhysics) {
+  ComponentChoice none = default_choice(registry_category::kEffect, "hysteresis");  // neutral: no friction
+  MaterialParameters truth = truth_with(none);
+  // Stiffening late (η1 takes Ẽ11², about 0.005 at 5 mm: η1' is 1.1 at 2.5 mm, 2.6 at 5 mm):
+  // the best single power law misses the stress by 6 % on average.
+  truth.eta1 = Curve{{0.9, 0.1}, {1.0, 600.0}};
+  const std::vector<double> offsets = {0.0, 0.0, 0.0}, scales = {1.12, 0.93, 0.96};
+  constexpr double kNoise = 0.005;
+  const std::string folder = write_dataset("discover_richer_curve", truth,
+                                           {{"warp", 90, 300, up_and_down(), offsets, scales, kNoise, 1},
+                                            {"weft", 0, 300, up_and_down(), offsets, scales, kNoise, 2},
+                                            {"bias", 45, 300, up_and_down(), offsets, scales, kNoise, 3}});
+  const FitProgress say = [](int, const std::string& line) { std::printf("  %s\n", line.c_str()); };
+  const DiscoverResult r = run_discover(read_dataset(folder), discover_config(), registry(), say);
+  fs::remove_all(folder);
+  for (const DiscoverCandidate& c : r.candidates)
+    std::printf("[measured] discover richer curve: %s %s (%s)\n", c.name.c_str(), c.status.c_str(), c.reason.c_str());
+  EXPECT_TRUE(std::find(r.named.begin(), r.named.end(), "hysteresis") == r.named.end()) << r.verdict;
+  EXPECT_EQ(candidate(r, kCurveDegreeCandidate).status, "named") << candidate(r, kCurveDegreeCandidate).reason;
 }
 
 TEST(Discover, NamesNothingWhereNothingIsHidden) {
@@ -540,6 +567,7 @@ TEST(Discover, NamesNothingWhereNothingIsHidden) {
   EXPECT_TRUE(r.named.empty());
   EXPECT_EQ(r.verdict, "none");
   EXPECT_EQ(candidate(r, "hysteresis").status, "rejected");
+  EXPECT_EQ(candidate(r, kCurveDegreeCandidate).status, "rejected");  // the linear truth needs no richer curve
   EXPECT_FALSE(r.refit.has_value());
 }
 
