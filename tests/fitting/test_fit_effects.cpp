@@ -561,6 +561,32 @@ TEST(Discover, ARicherCurveIsNotPassedOffAsPhysics) {
   EXPECT_EQ(candidate(r, kCurveDegreeCandidate).status, "named") << candidate(r, kCurveDegreeCandidate).reason;
 }
 
+// discover.screening_level: candidates and folds at the ladder's coarsest level (4x6), the named
+// effect refitted from the baseline at its finest (8x12). Not in the suite: 8 min on this
+// machine (the baseline's bias stage at 8x12 alone 2 min), over the suite's budget; run it with
+//   build/tests/twill_fitting_tests --gtest_also_run_disabled_tests --gtest_filter='Discover.DISABLED_Screens*'
+// Measured 2026-12-03 (8528a6c + this test, 471 s beside another fit): hysteresis named,
+// 20.47 % → 0.33 % at 4x6 (held-out 16.92 → 0.36 %), refit at 8x12: warp / weft / bias 15.31 /
+// 14.55 / 30.32 % → 0.33 / 0.34 / 0.31 %; curve-degree rejected (17.33 → 14.04 %). On 2x3 and
+// 4x6 the baseline's bias stage fails at 4x6 ("residuals not finite at x0": the 2x3 fit's
+// curve does not solve on the finer strip), with or without friction in the data.
+TEST(Discover, DISABLED_ScreensAtTheCoarseLevelAndRefitsTheNamedEffectAtTheFinest) {
+  // A third of the typical friction (the typical one was not tried at these levels).
+  ComponentChoice weak = typical_hysteresis();
+  weak.options.set("warp_friction_N_m", 50.0);
+  weak.options.set("weft_friction_N_m", 30.0);
+  weak.options.set("shear_friction_N_m", 7.0);
+  const DiscoverResult r = discover_on("discover_screening", weak,
+                                       {"resolution.coarse_cells_across=4", "resolution.levels=2",
+                                        "discover.screening_level=0"});
+  EXPECT_EQ(r.named, std::vector<std::string>{"hysteresis"}) << r.verdict;
+  EXPECT_EQ(r.baseline.finest_level, 1);
+  EXPECT_EQ(candidate(r, "hysteresis").effect->resolution, "4x6");
+  ASSERT_TRUE(r.refit.has_value());
+  ASSERT_FALSE(r.refit->effects.empty());
+  EXPECT_EQ(r.refit->effects.front().resolution, "8x12");
+}
+
 TEST(Discover, NamesNothingWhereNothingIsHidden) {
   ComponentChoice none = default_choice(registry_category::kEffect, "hysteresis");  // neutral: no friction
   const DiscoverResult r = discover_on("discover_null", none);
