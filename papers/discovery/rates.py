@@ -7,7 +7,12 @@ candidate the hidden dataset can test is testable on the twin too), each given t
 `twill discover`.
 
     rates.py TWILL OUTDIR [--effects E ...] [--seeds 1 2 3 4 5] [--scatter 0.10 0.20]
-             [--set KEY=VALUE ...] [--no-twins] [--table-only]
+             [--speeds MM_MIN ...] [--repeats N] [--set KEY=VALUE ...] [--no-twins] [--table-only]
+
+--speeds runs every test of the spec at these crosshead speeds (default: the spec's own). The
+hysteresis spec tests at one speed, where a friction loop and a Maxwell loop look alike and the
+honest verdict is `tied: hysteresis|rate-dependence (needs: two speeds)`; `--speeds 300 30` gives
+the data that separate them. --repeats sets the specimens per test and speed (default: the spec's).
 
 A run whose OUTDIR/<tag>-discover/discover.json exists is not repeated: the study resumes where
 it stopped. Writes OUTDIR/rates.json (a row per dataset) and OUTDIR/rates.md (the rates table,
@@ -46,11 +51,16 @@ def run(cmd, log):
         return subprocess.run(cmd, stdout=f, stderr=subprocess.STDOUT).returncode == 0
 
 
-def spec_for(effect, scatter, hidden, path):
+def spec_for(effect, scatter, hidden, path, speeds=None, repeats=None):
     twin_spec(os.path.join(SPECS, f"{effect}.yaml"), path, hidden)
     with open(path) as f:
         spec = yaml.safe_load(f)
     spec["scatter"] = scatter
+    for test in spec["tests"]:
+        if speeds:
+            test["rates_mm_min"] = list(speeds)
+        if repeats:
+            test["repeats"] = repeats
     with open(path, "w") as f:
         yaml.safe_dump(spec, f, sort_keys=False)
 
@@ -113,6 +123,8 @@ def main():
     parser.add_argument("--effects", nargs="+", default=EFFECTS, choices=EFFECTS)
     parser.add_argument("--seeds", nargs="+", type=int, default=[1, 2, 3, 4, 5])
     parser.add_argument("--scatter", nargs="+", type=float, default=[0.10, 0.20])
+    parser.add_argument("--speeds", nargs="+", type=float, help="every test at these speeds (mm/min)")
+    parser.add_argument("--repeats", type=int, help="specimens per test and speed")
     parser.add_argument("--set", nargs="*", default=DEFAULT_SET, dest="overrides")
     parser.add_argument("--no-twins", action="store_true", help="only the datasets with the effect hidden")
     parser.add_argument("--table-only", action="store_true", help="rewrite the tables from what has run")
@@ -131,7 +143,7 @@ def main():
                         if args.table_only:
                             continue
                         spec = os.path.join(args.out, tag + ".spec.yaml")
-                        spec_for(effect, scatter, hidden, spec)
+                        spec_for(effect, scatter, hidden, spec, args.speeds, args.repeats)
                         if not run([sys.executable, os.path.join(SPECS, "synthesize.py"), spec, "-o", data, "--twill",
                                     args.twill, "--seed", str(seed)], data + ".log"):
                             print(f"{tag}: generator failed, see {data}.log", flush=True)
