@@ -582,6 +582,16 @@ FitReport fit_effects_from(const DiscoverWork& work, const Dataset& dataset, con
                  work.registry, prefixed(work.progress, what));
 }
 
+// The progress line of a fitted candidate: its errors, its p-value and the time since `t`.
+void say_fitted(const DiscoverWork& work, const DiscoverCandidate& c, Clock::time_point t) {
+  if (!work.progress || !c.effect) return;
+  work.progress(0, fmt::format("candidate {}: error {:.2f} % → {:.2f} %, {} ({:.0f} s)", c.name,
+                               100 * c.effect->error_without, 100 * c.effect->error_with,
+                               std::isfinite(c.effect->score) ? fmt::format("calibrated p {:.2g}", c.effect->score_p_value)
+                                                              : std::string("no score test"),
+                               std::chrono::duration<double>(Clock::now() - t).count()));
+}
+
 // Each testable candidate fitted alone from the baseline; its report kept by name for the refit.
 void fit_candidates(const DiscoverWork& work, DiscoverResult* result, std::map<std::string, FitReport>* reports) {
   for (DiscoverCandidate& c : result->candidates) {
@@ -598,12 +608,7 @@ void fit_candidates(const DiscoverWork& work, DiscoverResult* result, std::map<s
       c.status = kFailed;
       c.reason = std::string("the fit with it failed: ") + e.what();
     }
-    if (work.progress && c.effect)
-      work.progress(0, fmt::format("candidate {}: error {:.2f} % → {:.2f} %, {} ({:.0f} s)", c.name,
-                                   100 * c.effect->error_without, 100 * c.effect->error_with,
-                                   std::isfinite(c.effect->score) ? fmt::format("calibrated p {:.2g}", c.effect->score_p_value)
-                                                                  : std::string("no score test"),
-                                   std::chrono::duration<double>(Clock::now() - t).count()));
+    say_fitted(work, c, t);
   }
 }
 
@@ -680,6 +685,7 @@ void fit_curve_degree(const DiscoverWork& work, DiscoverResult* result, std::map
     return;
   }
   if (work.progress) work.progress(0, "candidate curve-degree: every fitted curve one degree higher, on " + measure->name + "'s rows");
+  const auto t = Clock::now();
   try {
     const MaterialParameters& baseline = result->baseline.parameters;
     const std::string start = params_with_effects(baseline, {}, work.file("curve-degree-start.yaml"), work.registry);
@@ -693,6 +699,7 @@ void fit_curve_degree(const DiscoverWork& work, DiscoverResult* result, std::map
     c->status = kFailed;
     c->reason = std::string("the fit with it failed: ") + e.what();
   }
+  say_fitted(work, *c, t);
 }
 
 // The baseline of the fold of parity `parity` (the whole protocol without effects), fitted the
