@@ -568,8 +568,15 @@ struct DiscoverWork {
   TemporaryDirectory scratch{"twill-discover-"};
   int level = 0;  ///< the screening level: where candidates and folds are fitted and evaluated
   std::map<size_t, MaterialParameters> fold_baselines = {};  ///< by the fitted fold's parity
+  std::vector<std::pair<std::string, double>>* step_times = nullptr;  ///< DiscoverResult::step_times
 
   fs::path file(const std::string& name) const { return fs::path(scratch.path()) / name; }
+  /// Records `step` as taking the time since `since`; returns that time [s].
+  double timed(const std::string& step, Clock::time_point since) const {
+    const double s = std::chrono::duration<double>(Clock::now() - since).count();
+    if (step_times) step_times->emplace_back(step, s);
+    return s;
+  }
 };
 
 // `effects` fitted from `start` (start-from + their effect-fit stages) on `dataset` at `level`
@@ -582,14 +589,16 @@ FitReport fit_effects_from(const DiscoverWork& work, const Dataset& dataset, con
                  work.registry, prefixed(work.progress, what));
 }
 
-// The progress line of a fitted candidate: its errors, its p-value and the time since `t`.
+// The progress line of a fitted candidate (its errors, its p-value, the time since `t`), and
+// that time recorded as the candidate's step.
 void say_fitted(const DiscoverWork& work, const DiscoverCandidate& c, Clock::time_point t) {
+  const double seconds = work.timed("candidate " + c.name, t);
   if (!work.progress || !c.effect) return;
   work.progress(0, fmt::format("candidate {}: error {:.2f} % → {:.2f} %, {} ({:.0f} s)", c.name,
                                100 * c.effect->error_without, 100 * c.effect->error_with,
                                std::isfinite(c.effect->score) ? fmt::format("calibrated p {:.2g}", c.effect->score_p_value)
                                                               : std::string("no score test"),
-                               std::chrono::duration<double>(Clock::now() - t).count()));
+                               seconds));
 }
 
 // Each testable candidate fitted alone from the baseline; its report kept by name for the refit.
@@ -711,7 +720,9 @@ const MaterialParameters& fold_baseline(DiscoverWork& work, size_t parity) {
   if (work.progress) work.progress(0, "held-out check: " + what + " (the protocol without effects on that fold)");
   Options fold = with_effects(work.fit, {}, work.registry);  // its ladder up to the screening level
   apply_override(fold, fit_config_schema(), &work.registry, fmt::format("resolution.levels={}", work.level + 1));
+  const auto t = Clock::now();
   const FitReport r = run_fit(specimen_fold(work.dataset, parity), fold, work.registry, prefixed(work.progress, what));
+  work.timed(what, t);
   return work.fold_baselines.emplace(parity, r.parameters).first->second;
 }
 
@@ -730,11 +741,13 @@ DiscoverHeldOut held_out_check(DiscoverWork& work, const std::string& effect) {
     const Dataset fitted = specimen_fold(work.dataset, parity), held = specimen_fold(work.dataset, 1 - parity);
     const std::string fold = fmt::format("{} fold {}", effect, parity + 1);
     const MaterialParameters& without = fold_baseline(work, parity);
+    const auto t = Clock::now();
     if (work.progress) work.progress(0, "held-out check " + fold + ": fitting it from the fold's baseline, evaluating on the other fold");
     const FitReport with = fit_effects_from(work, fitted, without, {effect}, fold);
     if (const FitEffect* e = record_of(with.effects, effect)) out.folds.push_back(e->parameters);
     out.without += 0.5 * held_out_error(held, work.fit, effect, without, work.level, work.file("without.yaml"), work.registry);
     out.with += 0.5 * held_out_error(held, work.fit, effect, with.parameters, work.level, work.file("with.yaml"), work.registry);
+    work.timed("held-out check " + fold, t);
   }
   out.evaluated = true;
   return out;
@@ -752,8 +765,11 @@ DiscoverResult run_discover(const Dataset& dataset, const Options& config, const
   for (const DiscoverCandidate& c : result.candidates)
     if (progress && !c.status.empty()) progress(0, "candidate " + c.name + ": " + c.status + " (" + c.reason + ")");
   if (progress) progress(0, "baseline: the protocol without effects, every repeat with its specimen scale");
+  const auto t_baseline = Clock::now();
   result.baseline = run_fit(dataset, fit, registry, prefixed(progress, "baseline"));
   DiscoverWork work{dataset, fit, registry, progress};
+  work.step_times = &result.step_times;
+  work.timed("baseline", t_baseline);
   work.level = std::min(options.screening_level, result.baseline.finest_level);
   result.screening_resolution = fmt::format("level {}, {} cells across", work.level,
                                             fit.get_section("resolution").get_int("coarse_cells_across") << work.level);
@@ -777,7 +793,9 @@ DiscoverResult run_discover(const Dataset& dataset, const Options& config, const
     if (progress)
       progress(0, fmt::format("refit: {}{}, from the baseline, at {}", yaml_list(passing), passing.size() > 1 ? " jointly" : "",
                               result.baseline.finest_resolution));
+    const auto t_refit = Clock::now();
     result.refit = fit_effects_from(work, dataset, result.baseline.parameters, passing, "refit", result.baseline.finest_level);
+    work.timed("refit", t_refit);
     if (passing.size() >= 2) judge_candidates(options, &result.refit->effects, &result);
   } else if (passing.size() == 1) {
     result.refit = reports.at(passing.front());
@@ -843,6 +861,14 @@ json candidate_json(const DiscoverCandidate& c) {
   return j;
 }
 
+// The steps' times in order, as [step, seconds] pairs (a step name can repeat across runs of
+// the same check, never within one discover).
+json step_times_json(const std::vector<std::pair<std::string, double>>& steps) {
+  json j = json::array();
+  for (const auto& [step, seconds] : steps) j.push_back({step, seconds});
+  return j;
+}
+
 json discover_json(const DiscoverResult& r, const Options& config) {
   json gap = json::object();
   for (const DiscoverGap& g : r.gap) gap[g.test] = {{"before", g.before}, {"after", g.after}, {"floor", number(g.floor)}};
@@ -860,7 +886,8 @@ json discover_json(const DiscoverResult& r, const Options& config) {
           {"screening_resolution", r.screening_resolution},
           {"refit_resolution", r.refit ? json(r.refit->effects.empty() ? "" : r.refit->effects.front().resolution) : json(nullptr)},
           {"notes", r.notes},
-          {"time_s", r.time_s}};
+          {"time_s", r.time_s},
+          {"step_times_s", step_times_json(r.step_times)}};
 }
 
 std::string cell(double v) { return std::isfinite(v) ? fmt::format("{:.2f} %", 100 * v) : "—"; }
@@ -873,7 +900,10 @@ std::string discover_markdown(const DiscoverResult& r) {
      << r.baseline.finest_resolution << " (docs/discovery.md). Candidates and held-out folds screened at "
      << r.screening_resolution;
   if (r.refit && !r.refit->effects.empty()) md << "; named effects refitted at " << r.refit->effects.front().resolution;
-  md << ". Took " << fmt::format("{:.0f} s", r.time_s) << ".\n\n";
+  md << ". Took " << fmt::format("{:.0f} s", r.time_s);
+  std::string steps;
+  for (const auto& [step, seconds] : r.step_times) steps += fmt::format("{}{} {:.0f} s", steps.empty() ? "" : "; ", step, seconds);
+  md << (steps.empty() ? "" : " (" + steps + ")") << ".\n\n";
   md << "## Gap per test\n\nAverage relative error (model.md §8) on " << r.gap_rows
      << ": the paper's model (before), with the named effects (after), and the noise floor (the mean |residual| "
         "neither the baseline nor an effect explains, at its neutral values or fitted; docs/discovery.md §2).\n\n| test | before | after | floor |\n|---|---|---|---|\n";

@@ -101,6 +101,9 @@ struct DiscoverResult {
   std::string screening_resolution;  ///< where the candidates and held-out folds were fitted
   std::vector<std::string> notes;
   double time_s = 0;
+  /// Each step's wall time in order (the baseline, each candidate, each fold's baseline, each
+  /// held-out check without its fold baselines, the refit): where a discover's time goes.
+  std::vector<std::pair<std::string, double>> step_times;
 };
 
 /// The fit config's schema plus the `discover` section.

@@ -529,6 +529,16 @@ TEST(Discover, NamesHiddenHysteresisAndShowsTheGapShrink) {
       worst_with = std::max(worst_with, std::abs(c.with_N[i] - c.measured_N[i]) / std::abs(c.measured_N[i]));
     EXPECT_LT(worst_with, 0.03) << c.test << " " << c.run;  // 0.5 % noise: six standard deviations
   }
+  // Where the time went, step by step, in order.
+  std::vector<std::string> steps;
+  for (const auto& [step, seconds] : r.step_times) {
+    steps.push_back(step);
+    EXPECT_GE(seconds, 0.0) << step;
+  }
+  const std::vector<std::string> expected = {"baseline", "candidate hysteresis", "candidate curve-degree",
+                                             "fold 1 baseline", "held-out check hysteresis fold 1", "fold 2 baseline",
+                                             "held-out check hysteresis fold 2"};
+  EXPECT_EQ(steps, expected);
   // Without an effect-fit stage in the protocol, or without cantilevers: untestable, never named.
   EXPECT_EQ(candidate(r, "bending-anisotropy").status, "untestable");
   EXPECT_EQ(candidate(r, "misalignment").status, "untestable");
