@@ -295,6 +295,10 @@ OptionSchema discover_config_schema() {
             "resolution level the candidates and held-out folds are fitted at (0: the coarsest; capped at the "
             "baseline's finest); named effects are refitted at the baseline's finest level")
       .range(0, 4);
+  d.add_string("fold_baselines", DiscoverOptions{}.fold_baselines,
+               "each held-out fold's baseline: refit (the protocol's curve stages from the baseline's parameters, on "
+               "the fold's specimens) or protocol (the whole protocol from its initial guess)")
+      .choices({"refit", "protocol"});
   d.add_bool("curve_degree", DiscoverOptions{}.curve_degree,
              "test a richer elastic curve (every fitted tensile curve one degree higher) as the candidate "
              "`curve-degree`: an effect it explains as well is tied with it");
@@ -311,6 +315,7 @@ DiscoverOptions read_discover_options(const Options& config) {
   out.held_out = d.get_bool("held_out");
   out.screening_level = static_cast<int>(d.get_int("screening_level"));
   out.curve_degree = d.get_bool("curve_degree");
+  out.fold_baselines = d.get_string("fold_baselines");
   return out;
 }
 
@@ -569,6 +574,8 @@ struct DiscoverWork {
   int level = 0;  ///< the screening level: where candidates and folds are fitted and evaluated
   std::map<size_t, MaterialParameters> fold_baselines = {};  ///< by the fitted fold's parity
   std::vector<std::pair<std::string, double>>* step_times = nullptr;  ///< DiscoverResult::step_times
+  const MaterialParameters* baseline = nullptr;  ///< the baseline's parameters (a fold's refit starts there)
+  bool refit_fold_baselines = true;              ///< DiscoverOptions::fold_baselines == "refit"
 
   fs::path file(const std::string& name) const { return fs::path(scratch.path()) / name; }
   /// Records `step` as taking the time since `since`; returns that time [s].
@@ -621,18 +628,23 @@ void fit_candidates(const DiscoverWork& work, DiscoverResult* result, std::map<s
   }
 }
 
-// The protocol's tensile-curve stages refitted from `params_path` one degree above `baseline`'s
-// curves at the screening level, the raise tried whatever the error: curve-degree's fit.
-Options raised_curves_config(const DiscoverWork& work, const MaterialParameters& baseline, const std::string& params_path) {
+// The protocol's tensile-curve stages alone, refitted from `params_path` at the screening level
+// (each from the curve the file holds, at its degree): with `raise`, one degree above
+// `baseline`'s curves, the raise tried whatever the error (curve-degree's fit); without, as the
+// protocol sets them (a held-out fold's baseline).
+Options curves_refit_config(const DiscoverWork& work, const MaterialParameters& baseline, const std::string& params_path,
+                            bool raise) {
   constexpr double kRaiseAlways = 1e-9;  // a target error no curve reaches: the raise is tried
   Options config = with_effects(work.fit, {}, work.registry);
   std::vector<ComponentChoice> protocol = {start_from_stage(params_path, work.registry)};
   for (ComponentChoice stage : work.fit.get_component_list("protocol")) {
     if (stage.name != kTensileCurveStage) continue;
-    const Curve& curve = baseline.*(membrane_term(stage.options.get_string("term")).curve_member);
-    stage.options.set("max_degree", std::int64_t{std::min(curve.degree() + 1, kMaxCurveDegree)});
-    stage.options.set("target_error", kRaiseAlways);
-    stage.options.set("min_improvement", 0.0);
+    if (raise) {
+      const Curve& curve = baseline.*(membrane_term(stage.options.get_string("term")).curve_member);
+      stage.options.set("max_degree", std::int64_t{std::min(curve.degree() + 1, kMaxCurveDegree)});
+      stage.options.set("target_error", kRaiseAlways);
+      stage.options.set("min_improvement", 0.0);
+    }
     stage.options.set("level", std::int64_t{work.level});
     protocol.push_back(std::move(stage));
   }
@@ -698,7 +710,7 @@ void fit_curve_degree(const DiscoverWork& work, DiscoverResult* result, std::map
   try {
     const MaterialParameters& baseline = result->baseline.parameters;
     const std::string start = params_with_effects(baseline, {}, work.file("curve-degree-start.yaml"), work.registry);
-    FitReport raised = run_fit(work.dataset, raised_curves_config(work, baseline, start), work.registry,
+    FitReport raised = run_fit(work.dataset, curves_refit_config(work, baseline, start, true), work.registry,
                                prefixed(work.progress, kCurveDegreeCandidate));
     c->effect = curve_degree_record(rows_error(work, baseline, measure->name, "curve-degree-without"),
                                     rows_error(work, raised.parameters, measure->name, "curve-degree-with"), baseline,
@@ -711,15 +723,24 @@ void fit_curve_degree(const DiscoverWork& work, DiscoverResult* result, std::map
   say_fitted(work, *c, t);
 }
 
-// The baseline of the fold of parity `parity` (the whole protocol without effects), fitted the
-// first time a candidate's check asks for it.
+// The baseline of the fold of parity `parity`, fitted the first time a candidate's check asks
+// for it: the curves refitted from the baseline's parameters on the fold's specimens (their
+// start has seen the other fold; each fit only descends from it), or the whole protocol without
+// effects from its initial guess (discover.fold_baselines).
 const MaterialParameters& fold_baseline(DiscoverWork& work, size_t parity) {
   const auto found = work.fold_baselines.find(parity);
   if (found != work.fold_baselines.end()) return found->second;
   const std::string what = fmt::format("fold {} baseline", parity + 1);
-  if (work.progress) work.progress(0, "held-out check: " + what + " (the protocol without effects on that fold)");
-  Options fold = with_effects(work.fit, {}, work.registry);  // its ladder up to the screening level
-  apply_override(fold, fit_config_schema(), &work.registry, fmt::format("resolution.levels={}", work.level + 1));
+  Options fold;
+  if (work.refit_fold_baselines) {
+    if (work.progress) work.progress(0, "held-out check: " + what + " (the curves refitted from the baseline on that fold)");
+    const std::string start = params_with_effects(*work.baseline, {}, work.file(what + ".yaml"), work.registry);
+    fold = curves_refit_config(work, *work.baseline, start, false);
+  } else {
+    if (work.progress) work.progress(0, "held-out check: " + what + " (the protocol without effects on that fold)");
+    fold = with_effects(work.fit, {}, work.registry);  // its ladder up to the screening level
+    apply_override(fold, fit_config_schema(), &work.registry, fmt::format("resolution.levels={}", work.level + 1));
+  }
   const auto t = Clock::now();
   const FitReport r = run_fit(specimen_fold(work.dataset, parity), fold, work.registry, prefixed(work.progress, what));
   work.timed(what, t);
@@ -769,6 +790,8 @@ DiscoverResult run_discover(const Dataset& dataset, const Options& config, const
   result.baseline = run_fit(dataset, fit, registry, prefixed(progress, "baseline"));
   DiscoverWork work{dataset, fit, registry, progress};
   work.step_times = &result.step_times;
+  work.baseline = &result.baseline.parameters;
+  work.refit_fold_baselines = options.fold_baselines == "refit";
   work.timed("baseline", t_baseline);
   work.level = std::min(options.screening_level, result.baseline.finest_level);
   result.screening_resolution = fmt::format("level {}, {} cells across", work.level,

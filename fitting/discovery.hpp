@@ -42,6 +42,10 @@ struct DiscoverOptions {
   /// Test a richer elastic curve (every fitted tensile curve one degree higher) as a candidate
   /// of its own, `curve-degree` (kCurveDegreeCandidate).
   bool curve_degree = true;
+  /// How each held-out fold's baseline is fitted: "refit" (the protocol's tensile-curve stages
+  /// from the baseline's parameters, on the fold's specimens) or "protocol" (the whole protocol
+  /// from its initial guess).
+  std::string fold_baselines = "refit";
 };
 
 /// The candidate that is not an effect: the paper's curves one degree higher (a richer curve
