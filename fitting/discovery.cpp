@@ -172,6 +172,11 @@ void judge_one(const DiscoverOptions& options, double threshold, double floor, D
       c->status = kRejected;
       c->reason += "; not stable over the specimen folds: " + unstable;
     }
+  } else if (!h.failure.empty()) {
+    // Tried and not finished: the improvement is neither confirmed nor refuted, and a model the
+    // specimens of one fold cannot be simulated with is not one to name.
+    c->status = kFailed;
+    c->reason += "; the held-out check failed: " + h.failure;
   } else if (!h.note.empty()) {
     c->reason += "; held-out check not made: " + h.note;
   }
@@ -747,6 +752,8 @@ const MaterialParameters& fold_baseline(DiscoverWork& work, size_t parity) {
   return work.fold_baselines.emplace(parity, r.parameters).first->second;
 }
 
+void held_out_folds(DiscoverWork& work, const std::string& effect, DiscoverHeldOut* out);
+
 DiscoverHeldOut held_out_check(DiscoverWork& work, const std::string& effect) {
   DiscoverHeldOut out;
   if (!has_repeats(work.dataset)) {
@@ -758,6 +765,21 @@ DiscoverHeldOut held_out_check(DiscoverWork& work, const std::string& effect) {
                "length to hold out)";
     return out;
   }
+  try {
+    held_out_folds(work, effect, &out);
+  } catch (const std::exception& e) {
+    out.failure = e.what();
+    if (work.progress) work.progress(0, "held-out check " + effect + ": failed: " + out.failure);
+    return out;
+  }
+  out.evaluated = true;
+  return out;
+}
+
+// The two folds of held_out_check: each fitted with the effect from its baseline, evaluated on
+// the other; the errors averaged into `out`, the folds' parameters kept.
+void held_out_folds(DiscoverWork& work, const std::string& effect, DiscoverHeldOut* out_) {
+  DiscoverHeldOut& out = *out_;
   for (size_t parity : {0u, 1u}) {
     const Dataset fitted = specimen_fold(work.dataset, parity), held = specimen_fold(work.dataset, 1 - parity);
     const std::string fold = fmt::format("{} fold {}", effect, parity + 1);
@@ -770,8 +792,6 @@ DiscoverHeldOut held_out_check(DiscoverWork& work, const std::string& effect) {
     out.with += 0.5 * held_out_error(held, work.fit, effect, with.parameters, work.level, work.file("with.yaml"), work.registry);
     work.timed("held-out check " + fold, t);
   }
-  out.evaluated = true;
-  return out;
 }
 
 }  // namespace
@@ -865,6 +885,8 @@ json candidate_json(const DiscoverCandidate& c) {
   j["resolution"] = e.resolution;
   if (c.held_out.evaluated)
     j["held_out"] = {{"error_without", c.held_out.without}, {"error_with", c.held_out.with}};
+  else if (!c.held_out.failure.empty())
+    j["held_out"] = {{"failed", c.held_out.failure}};
   else if (!c.held_out.note.empty())
     j["held_out"] = {{"not_evaluated", c.held_out.note}};
   j["parameters"] = json::array();

@@ -62,6 +62,7 @@ struct DiscoverHeldOut {
   /// The effect's parameters as each fold's fit left them (resamples of the specimens: their
   /// spread is the parameters' interval, and their sides of the neutral values the stability).
   std::vector<std::vector<FitEffectParameter>> folds = {};
+  std::string failure = {};  ///< what stopped it, when a fold's fit or evaluation failed (the candidate fails)
 };
 
 /// Whether the effect keeps its direction on each fold: in every fold's fit some parameter the

@@ -185,7 +185,7 @@ class FitContext {
 
   // ---- the repeat scatter (`repeats.scale`, core/specimen_scale.hpp) ----
   /// The scale groups of an objective whose first runs.size() predictors predict these runs'
-  /// forces (one group per test; none after them); empty when the config models no scatter.
+  /// forces (one group per angle, i.e. per fitted curve; none after them); empty when the config models no scatter.
   std::vector<int> scale_groups(const std::vector<const RunData*>& runs, size_t predictors) const;
   /// Keeps the first runs.size() of `scales` (an objective's profiled scales) as those fit
   /// runs' RunData::specimen_scale; nothing when the config models no scatter.

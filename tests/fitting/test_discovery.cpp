@@ -59,6 +59,12 @@ TEST(DiscoverJudge, NamesOnlyWhatHoldsOnHeldOutSpecimens) {
   const DiscoverResult one = judged({c});
   EXPECT_EQ(one.verdict, "named");
   EXPECT_NE(one.candidates[0].reason.find("held-out check not made"), std::string::npos);
+  c.held_out = {false, 0, 0, "", {}, "warp-300-2: step 16 of 21 did not converge"};  // tried, not finished
+  const DiscoverResult failed = judged({c});
+  EXPECT_EQ(failed.verdict, "none");
+  EXPECT_EQ(failed.candidates[0].status, "failed");
+  EXPECT_NE(failed.candidates[0].reason.find("the held-out check failed: warp-300-2"), std::string::npos)
+      << failed.candidates[0].reason;
 }
 
 // The specimen resamples: in each fold's fit some parameter the fit moved off neutral must stay
