@@ -26,6 +26,7 @@ floor must shrink threefold) and its held-out errors. Counted per (effect, scatt
   tied      the verdict is a tie;
   untestable  the hidden effect was untestable (the data lack its observables: a spec error);
   unexplained the verdict is `unexplained at ...`;
+  failed    nothing named and the hidden effect's fit or held-out check failed (its reason says);
   none      nothing named, no tie, no misfit.
 """
 import argparse
@@ -84,6 +85,8 @@ def classify(row):
         return "unexplained"
     if row["hidden"] and row["statuses"].get(row["effect"]) == "untestable":
         return "untestable"
+    if row["hidden"] and row["statuses"].get(row["effect"]) == "failed" and not row["named"]:
+        return "failed"
     if row["hidden"] and row["effect"] in row["named"]:
         return "named" if len(row["named"]) == 1 else "named+false"
     return "false" if row["named"] else "none"
@@ -92,7 +95,7 @@ def classify(row):
 def write_tables(out, rows):
     with open(os.path.join(out, "rates.json"), "w") as f:
         json.dump(rows, f, indent=1)
-    kinds = ["named", "named+false", "false", "tied", "untestable", "unexplained", "none"]
+    kinds = ["named", "named+false", "false", "tied", "untestable", "unexplained", "failed", "none"]
     groups = {}
     for r in rows:
         groups.setdefault((r["effect"], r["scatter"], r["hidden"]), []).append(classify(r))

@@ -115,10 +115,13 @@ INSTANTIATE_TEST_SUITE_P(Registered, EveryEffect, ::testing::ValuesIn(every_effe
 
 class ParamsEffects : public ::testing::Test {
  protected:
+  static std::filesystem::path dir() {
+    return std::filesystem::temp_directory_path() / ("twill_effects_" + std::to_string(::getpid()));
+  }
+  void TearDown() override { std::filesystem::remove_all(dir()); }  // nothing left in /tmp
   std::string write(const std::string& effects_text) {
-    const auto dir = std::filesystem::temp_directory_path() / ("twill_effects_" + std::to_string(::getpid()));
-    std::filesystem::create_directories(dir);
-    const std::string path = (dir / "params.yaml").string();
+    std::filesystem::create_directories(dir());
+    const std::string path = (dir() / "params.yaml").string();
     std::string text = params_to_yaml(poplin());
     text += effects_text;
     std::ofstream(path) << text;

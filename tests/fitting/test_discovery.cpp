@@ -120,6 +120,25 @@ TEST(DiscoverJudge, TwoEffectsExplainingTheSameMisfitAreTied) {
   EXPECT_EQ(judged(both, &joint).named.size(), 2u);
 }
 
+TEST(DiscoverJudge, AnEffectThatAddsNothingAndExplainsFarLessIsRejectedNotTied) {
+  // Friction at two speeds: rate-dependence passes alone (8 % → 3.3 %, the floor 1 %) but adds
+  // nothing after hysteresis (p 0.4), and leaves 2.3 % over the floor against hysteresis's 0.2 %:
+  // hysteresis explains what it does and more. Named, not tied.
+  std::vector<DiscoverCandidate> both = {fitted("hysteresis", 1e-4, 0.08, 0.012), fitted("rate-dependence", 1e-4, 0.08, 0.033)};
+  std::vector<FitEffect> joint = {*both[0].effect, *both[1].effect};
+  joint[1].score_p_value = 0.4;
+  const DiscoverResult r = judged(both, &joint);
+  EXPECT_EQ(r.verdict, "named");
+  EXPECT_EQ(r.named, std::vector<std::string>{"hysteresis"});
+  EXPECT_EQ(r.candidates[1].status, "rejected");
+  EXPECT_NE(r.candidates[1].reason.find("hysteresis explains more"), std::string::npos) << r.candidates[1].reason;
+  // Just inside the factor (2.9 × 0.2 % left): the data do not separate them.
+  both[1].effect->error_with = 0.01 + 2.9 * 0.002;
+  joint[1] = *both[1].effect;
+  joint[1].score_p_value = 0.4;
+  EXPECT_EQ(judged(both, &joint).verdict.rfind("tied: hysteresis|rate-dependence", 0), 0u);
+}
+
 TEST(DiscoverJudge, ARicherCurveThatExplainsTheMisfitTooIsTiedWithTheEffect) {
   // curve-degree has no score test: it passes on the shrink alone, and alone it is named.
   DiscoverCandidate curve = fitted(kCurveDegreeCandidate, std::numeric_limits<double>::quiet_NaN(), 0.08, 0.012);
