@@ -86,6 +86,12 @@ class Effect {
   /// "needs at least two repeats at some tensile angle".
   virtual std::string missing_data(const Dataset& dataset) const = 0;
 
+  /// What `twill discover` holds out to confirm this effect (docs/discovery.md §1): other
+  /// specimens (the default), or the tests at another crosshead speed, for an effect that
+  /// claims to predict one speed from another (issue #16's held-out check by observation type).
+  enum class HeldOut { specimens, speeds };
+  virtual HeldOut held_out() const { return HeldOut::specimens; }
+
   /// The parameters each run gets (with their defaults as values); none by default.
   virtual std::vector<EffectParameter> per_run_parameters() const { return {}; }
   /// The model parameters estimated from the runs' fitted per-run values (one vector per run,

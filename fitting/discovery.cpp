@@ -163,11 +163,11 @@ void judge_one(const DiscoverOptions& options, double threshold, double floor, D
   const DiscoverHeldOut& h = c->held_out;
   if (h.evaluated) {
     const bool holds = h.with < h.without;
-    c->reason += fmt::format("; held-out specimens {:.2f} % without → {:.2f} % with", 100 * h.without, 100 * h.with);
+    c->reason += fmt::format("; held-out {} {:.2f} % without → {:.2f} % with", h.held, 100 * h.without, 100 * h.with);
     std::string unstable;
     if (!holds) {
       c->status = kRejected;
-      c->reason += ": the improvement does not hold on specimens the fit did not see";
+      c->reason += ": the improvement does not hold on " + h.held + " the fit did not see";
     } else if (!stable_over_folds(e.parameters, h, &unstable)) {
       c->status = kRejected;
       c->reason += "; not stable over the specimen folds: " + unstable;
@@ -526,6 +526,57 @@ bool fits_chord_angles(const Options& fit, const std::string& effect) {
   return false;
 }
 
+// The two specimen folds (even and odd run index of every fit test).
+std::vector<DiscoverFold> specimen_folds(const Dataset& dataset) {
+  return {{"fold 1", specimen_fold(dataset, 0), specimen_fold(dataset, 1)},
+          {"fold 2", specimen_fold(dataset, 1), specimen_fold(dataset, 0)}};
+}
+
+// The fit tests at `speed` (`keep`) or at every other speed (!keep); other tests as they are.
+Dataset speed_fold(const Dataset& dataset, double speed, bool keep) {
+  Dataset fold = dataset;
+  std::erase_if(fold.tensile, [&](const TensileTest& t) {
+    return t.role == TestRole::Fit && (t.rate_mm_min.value_or(0.0) == speed) != keep;
+  });
+  return fold;
+}
+
+// One fold per crosshead speed of the fit tests: fitted on that speed's tests, evaluated on the
+// others'; none when the fit tests have fewer than two speeds.
+std::vector<DiscoverFold> speed_folds(const Dataset& dataset) {
+  std::vector<double> speeds;
+  for (const TensileTest& t : dataset.tensile)
+    if (t.role == TestRole::Fit && t.rate_mm_min && std::find(speeds.begin(), speeds.end(), *t.rate_mm_min) == speeds.end())
+      speeds.push_back(*t.rate_mm_min);
+  std::vector<DiscoverFold> folds;
+  if (speeds.size() < 2) return folds;
+  for (double v : speeds)
+    folds.push_back({fmt::format("at {:g} mm/min", v), speed_fold(dataset, v, true), speed_fold(dataset, v, false)});
+  return folds;
+}
+
+bool has_repeats(const Dataset& dataset);
+
+}  // namespace
+
+std::vector<DiscoverFold> discover_folds(const Dataset& dataset, Effect::HeldOut kind, std::string* held, std::string* why) {
+  if (kind == Effect::HeldOut::speeds) {
+    std::vector<DiscoverFold> folds = speed_folds(dataset);
+    if (!folds.empty()) {
+      *held = "speeds";
+      return folds;
+    }
+  }
+  *held = "specimens";
+  if (!has_repeats(dataset)) {
+    *why = "every fit test has one specimen (needs two or more per test)";
+    return {};
+  }
+  return specimen_folds(dataset);
+}
+
+namespace {
+
 bool has_repeats(const Dataset& dataset) {
   for (const TensileTest& test : dataset.tensile)
     if (test.role == TestRole::Fit && test.runs.size() >= 2) return true;
@@ -599,7 +650,7 @@ struct DiscoverWork {
   const FitProgress& progress;
   TemporaryDirectory scratch{"twill-discover-"};
   int level = 0;  ///< the screening level: where candidates and folds are fitted and evaluated
-  std::map<size_t, MaterialParameters> fold_baselines = {};  ///< by the fitted fold's parity
+  std::map<std::string, MaterialParameters> fold_baselines = {};  ///< by the fold's name
   std::vector<std::pair<std::string, double>>* step_times = nullptr;  ///< DiscoverResult::step_times
   const MaterialParameters* baseline = nullptr;  ///< the baseline's parameters (a fold's refit starts there)
   bool refit_fold_baselines = true;              ///< DiscoverOptions::fold_baselines == "refit"
@@ -750,14 +801,14 @@ void fit_curve_degree(const DiscoverWork& work, DiscoverResult* result, std::map
   say_fitted(work, *c, t);
 }
 
-// The baseline of the fold of parity `parity`, fitted the first time a candidate's check asks
-// for it: the curves refitted from the baseline's parameters on the fold's specimens (their
-// start has seen the other fold; each fit only descends from it), or the whole protocol without
-// effects from its initial guess (discover.fold_baselines).
-const MaterialParameters& fold_baseline(DiscoverWork& work, size_t parity) {
-  const auto found = work.fold_baselines.find(parity);
+// The baseline of `fold`, fitted the first time a candidate's check asks for it: the curves
+// refitted from the baseline's parameters on the fold's tests (their start has seen the held-out
+// data; each fit only descends from it), or the whole protocol without effects from its initial
+// guess (discover.fold_baselines).
+const MaterialParameters& fold_baseline(DiscoverWork& work, const DiscoverFold& f) {
+  const auto found = work.fold_baselines.find(f.name);
   if (found != work.fold_baselines.end()) return found->second;
-  const std::string what = fmt::format("fold {} baseline", parity + 1);
+  const std::string what = f.name + " baseline";
   Options fold;
   if (work.refit_fold_baselines) {
     if (work.progress) work.progress(0, "held-out check: " + what + " (the curves refitted from the baseline on that fold)");
@@ -769,26 +820,29 @@ const MaterialParameters& fold_baseline(DiscoverWork& work, size_t parity) {
     apply_override(fold, fit_config_schema(), &work.registry, fmt::format("resolution.levels={}", work.level + 1));
   }
   const auto t = Clock::now();
-  const FitReport r = run_fit(specimen_fold(work.dataset, parity), fold, work.registry, prefixed(work.progress, what));
+  const FitReport r = run_fit(f.fitted, fold, work.registry, prefixed(work.progress, what));
   work.timed(what, t);
-  return work.fold_baselines.emplace(parity, r.parameters).first->second;
+  return work.fold_baselines.emplace(f.name, r.parameters).first->second;
 }
 
-void held_out_folds(DiscoverWork& work, const std::string& effect, DiscoverHeldOut* out);
+std::vector<DiscoverFold> folds_for(const DiscoverWork& work, const std::string& effect, std::string* held, std::string* note) {
+  const auto e = work.registry.create<EffectFactories>(registry_category::kEffect, neutral_effect(effect, work.registry));
+  return discover_folds(work.dataset, e->held_out(), held, note);
+}
+
+void held_out_folds(DiscoverWork& work, const std::string& effect, const std::vector<DiscoverFold>& folds, DiscoverHeldOut* out);
 
 DiscoverHeldOut held_out_check(DiscoverWork& work, const std::string& effect) {
   DiscoverHeldOut out;
-  if (!has_repeats(work.dataset)) {
-    out.note = "every fit test has one specimen (needs two or more per test)";
-    return out;
-  }
   if (fits_chord_angles(work.fit, effect)) {  // the folds split tensile runs only
     out.note = "its data are the cantilevers' chord angles, one per direction (needs a third cantilever angle or "
                "length to hold out)";
     return out;
   }
+  const std::vector<DiscoverFold> folds = folds_for(work, effect, &out.held, &out.note);
+  if (folds.empty()) return out;
   try {
-    held_out_folds(work, effect, &out);
+    held_out_folds(work, effect, folds, &out);
   } catch (const std::exception& e) {
     out.failure = e.what();
     if (work.progress) work.progress(0, "held-out check " + effect + ": failed: " + out.failure);
@@ -798,20 +852,20 @@ DiscoverHeldOut held_out_check(DiscoverWork& work, const std::string& effect) {
   return out;
 }
 
-// The two folds of held_out_check: each fitted with the effect from its baseline, evaluated on
-// the other; the errors averaged into `out`, the folds' parameters kept.
-void held_out_folds(DiscoverWork& work, const std::string& effect, DiscoverHeldOut* out_) {
+// The folds of held_out_check: each fitted with the effect from its baseline, evaluated on its
+// held-out data; the errors averaged over the folds into `out`, the folds' parameters kept.
+void held_out_folds(DiscoverWork& work, const std::string& effect, const std::vector<DiscoverFold>& folds, DiscoverHeldOut* out_) {
   DiscoverHeldOut& out = *out_;
-  for (size_t parity : {0u, 1u}) {
-    const Dataset fitted = specimen_fold(work.dataset, parity), held = specimen_fold(work.dataset, 1 - parity);
-    const std::string fold = fmt::format("{} fold {}", effect, parity + 1);
-    const MaterialParameters& without = fold_baseline(work, parity);
+  const double weight = 1.0 / static_cast<double>(folds.size());
+  for (const DiscoverFold& f : folds) {
+    const std::string fold = effect + " " + f.name;
+    const MaterialParameters& without = fold_baseline(work, f);
     const auto t = Clock::now();
-    if (work.progress) work.progress(0, "held-out check " + fold + ": fitting it from the fold's baseline, evaluating on the other fold");
-    const FitReport with = fit_effects_from(work, fitted, without, {effect}, fold);
+    if (work.progress) work.progress(0, "held-out check " + fold + ": fitting it from the fold's baseline, evaluating on the held-out " + out.held);
+    const FitReport with = fit_effects_from(work, f.fitted, without, {effect}, fold);
     if (const FitEffect* e = record_of(with.effects, effect)) out.folds.push_back(e->parameters);
-    out.without += 0.5 * held_out_error(held, work.fit, effect, without, work.level, work.file("without.yaml"), work.registry);
-    out.with += 0.5 * held_out_error(held, work.fit, effect, with.parameters, work.level, work.file("with.yaml"), work.registry);
+    out.without += weight * held_out_error(f.held, work.fit, effect, without, work.level, work.file("without.yaml"), work.registry);
+    out.with += weight * held_out_error(f.held, work.fit, effect, with.parameters, work.level, work.file("with.yaml"), work.registry);
     work.timed("held-out check " + fold, t);
   }
 }
@@ -906,7 +960,7 @@ json candidate_json(const DiscoverCandidate& c) {
   j["error_with"] = e.error_with;
   j["resolution"] = e.resolution;
   if (c.held_out.evaluated)
-    j["held_out"] = {{"error_without", c.held_out.without}, {"error_with", c.held_out.with}};
+    j["held_out"] = {{"held", c.held_out.held}, {"error_without", c.held_out.without}, {"error_with", c.held_out.with}};
   else if (!c.held_out.failure.empty())
     j["held_out"] = {{"failed", c.held_out.failure}};
   else if (!c.held_out.note.empty())

@@ -25,6 +25,7 @@
 #include "core/config.hpp"
 #include "core/dataset.hpp"
 #include "core/registry.hpp"
+#include "effects/effect.hpp"
 #include "fitting/fit_protocol.hpp"
 
 namespace twill {
@@ -63,7 +64,21 @@ struct DiscoverHeldOut {
   /// spread is the parameters' interval, and their sides of the neutral values the stability).
   std::vector<std::vector<FitEffectParameter>> folds = {};
   std::string failure = {};  ///< what stopped it, when a fold's fit or evaluation failed (the candidate fails)
+  std::string held = "specimens";  ///< what the folds held out: "specimens" or "speeds" (Effect::held_out)
 };
+
+/// A held-out check's fold: the data a fit sees and the data it is judged on.
+struct DiscoverFold {
+  std::string name;  ///< "fold 1", "at 300 mm/min", ...
+  Dataset fitted, held;
+};
+
+/// The folds that confirm an effect that holds out `kind` (Effect::held_out): one per crosshead
+/// speed of the fit tests (fitted on that speed's tests, judged on the others'; validation tests
+/// in both) when there are two or more speeds, otherwise two specimen folds (even and odd runs
+/// of every fit test); none, with `why`, when every fit test has one specimen. `held` names what
+/// was held out: "speeds" or "specimens".
+std::vector<DiscoverFold> discover_folds(const Dataset& dataset, Effect::HeldOut kind, std::string* held, std::string* why);
 
 /// Whether the effect keeps its direction on each fold: in every fold's fit some parameter the
 /// fit on all specimens moved off its neutral value stays off it on the same side (the effect

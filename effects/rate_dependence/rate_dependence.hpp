@@ -50,6 +50,8 @@ class RateDependence final : public Effect {
   explicit RateDependence(const RateDependenceOptions& options);
 
   std::string missing_data(const Dataset& dataset) const override;
+  /// Confirmed by predicting the tests at one speed from a fit to the others.
+  HeldOut held_out() const override { return HeldOut::speeds; }
   bool changes_observables() const override { return true; }
   ObservableChange observable_change(const RunConditions& run, const MaterialParameters& k) const override;
 

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <limits>
+#include <optional>
 
 #include "fitting/discovery.hpp"
 
@@ -154,6 +155,54 @@ TEST(DiscoverJudge, ARicherCurveThatExplainsTheMisfitTooIsTiedWithTheEffect) {
   // A curve that does not shrink the excess threefold is no rival.
   curve.effect->error_with = curve.effect->tests[0].error_with = curve.effect->tests[1].error_with = 0.05;
   EXPECT_EQ(judged({fitted("hysteresis", 1e-4, 0.08, 0.012), curve}).named, std::vector<std::string>{"hysteresis"});
+}
+
+// ---- the held-out folds --------------------------------------------------------------------
+
+TensileTest test_at(const std::string& label, double angle, std::optional<double> speed, int specimens,
+                    TestRole role = TestRole::Fit) {
+  TensileTest t;
+  t.label = label;
+  t.angle_deg = angle;
+  t.rate_mm_min = speed;
+  t.role = role;
+  for (int i = 0; i < specimens; ++i) t.runs.push_back(TensileRun{label + "-" + std::to_string(i + 1) + ".csv"});
+  return t;
+}
+
+std::vector<std::string> labels(const Dataset& d) {
+  std::vector<std::string> out;
+  for (const TensileTest& t : d.tensile) out.push_back(t.label + "×" + std::to_string(t.runs.size()));
+  return out;
+}
+
+TEST(DiscoverFolds, AnEffectThatPredictsSpeedsIsHeldOutBySpeedOtherwiseBySpecimen) {
+  Dataset two_speeds;
+  two_speeds.tensile = {test_at("warp-300", 90, 300, 2), test_at("warp-30", 90, 30, 2), test_at("bias-300", 45, 300, 2),
+                        test_at("bias-30", 45, 30, 2), test_at("a22.5", 22.5, 300, 1, TestRole::Validation)};
+  std::string held, why;
+  const std::vector<DiscoverFold> speeds = discover_folds(two_speeds, Effect::HeldOut::speeds, &held, &why);
+  EXPECT_EQ(held, "speeds");
+  ASSERT_EQ(speeds.size(), 2u);
+  EXPECT_EQ(speeds[0].name, "at 300 mm/min");
+  // Fitted on one speed's tests, judged on the other's; the validation strip stays in both.
+  EXPECT_EQ(labels(speeds[0].fitted), (std::vector<std::string>{"warp-300×2", "bias-300×2", "a22.5×1"}));
+  EXPECT_EQ(labels(speeds[0].held), (std::vector<std::string>{"warp-30×2", "bias-30×2", "a22.5×1"}));
+  EXPECT_EQ(labels(speeds[1].fitted), labels(speeds[0].held));
+  // Other specimens for any other effect: every test kept, its runs split by parity.
+  const std::vector<DiscoverFold> specimens = discover_folds(two_speeds, Effect::HeldOut::specimens, &held, &why);
+  EXPECT_EQ(held, "specimens");
+  ASSERT_EQ(specimens.size(), 2u);
+  EXPECT_EQ(specimens[0].fitted.tensile[0].runs[0].path, "warp-300-1.csv");
+  EXPECT_EQ(specimens[0].held.tensile[0].runs[0].path, "warp-300-2.csv");
+  // One speed: a speed effect falls back to specimens; one specimen per test as well: no folds.
+  Dataset one_speed;
+  one_speed.tensile = {test_at("warp", 90, 300, 2), test_at("weft", 0, std::nullopt, 2)};
+  EXPECT_EQ(discover_folds(one_speed, Effect::HeldOut::speeds, &held, &why).size(), 2u);
+  EXPECT_EQ(held, "specimens");
+  one_speed.tensile = {test_at("warp", 90, 300, 1), test_at("weft", 0, 300, 1)};
+  EXPECT_TRUE(discover_folds(one_speed, Effect::HeldOut::speeds, &held, &why).empty());
+  EXPECT_NE(why.find("one specimen"), std::string::npos) << why;
 }
 
 }  // namespace
