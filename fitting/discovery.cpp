@@ -655,7 +655,11 @@ struct DiscoverWork {
   const MaterialParameters* baseline = nullptr;  ///< the baseline's parameters (a fold's refit starts there)
   bool refit_fold_baselines = true;              ///< DiscoverOptions::fold_baselines == "refit"
 
-  fs::path file(const std::string& name) const { return fs::path(scratch.path()) / name; }
+  /// A scratch file named after a step (a '/' in it, as in "mm/min", made a '-').
+  fs::path file(std::string name) const {
+    std::replace(name.begin(), name.end(), '/', '-');
+    return fs::path(scratch.path()) / name;
+  }
   /// Records `step` as taking the time since `since`; returns that time [s].
   double timed(const std::string& step, Clock::time_point since) const {
     const double s = std::chrono::duration<double>(Clock::now() - since).count();
