@@ -234,6 +234,38 @@ void resolve_joint(const std::vector<FitEffect>& joint, double threshold, const 
   }
 }
 
+// Two candidates passed alone and were refitted jointly in both orders: each is scored after the
+// other (the second record of each order). Significant after the other: it explains something
+// the other does not. One that is not, beside one that is, explained nothing the other did not
+// while the other explains more: rejected. Neither: tied. Where resolve_joint has to infer the
+// other direction from the fits alone, this measures it.
+void resolve_pair(const std::vector<FitEffect>& joint, const std::vector<FitEffect>& reversed, double threshold,
+                  DiscoverResult* result, std::vector<std::string>* ties) {
+  const auto candidate = [&](const std::string& name) {
+    return std::find_if(result->candidates.begin(), result->candidates.end(),
+                        [&](const DiscoverCandidate& d) { return d.name == name && d.status == kNamed; });
+  };
+  const FitEffect &b_after_a = joint[1], &a_after_b = reversed[1];
+  auto a = candidate(a_after_b.effect), b = candidate(b_after_a.effect);
+  if (a == result->candidates.end() || b == result->candidates.end()) return;
+  const bool a_adds = a_after_b.score_p_value < threshold, b_adds = b_after_a.score_p_value < threshold;
+  const auto say = [&](DiscoverCandidate& c, const FitEffect& after, const std::string& other) {
+    c.reason += fmt::format("; after {} in the joint refit its calibrated p is {:.2g}", other, after.score_p_value);
+  };
+  say(*a, a_after_b, b->name);
+  say(*b, b_after_a, a->name);
+  if (a_adds && b_adds) return;
+  if (a_adds || b_adds) {
+    DiscoverCandidate& loser = a_adds ? *b : *a;
+    const std::string winner = a_adds ? a->name : b->name;
+    loser.status = kRejected;
+    loser.reason += fmt::format(": it explains nothing {} does not, and {} explains what it does not", winner, winner);
+    return;
+  }
+  a->status = b->status = kTied;
+  ties->push_back(fmt::format("tied: {}|{} (needs: {})", a->name, b->name, needs_to_separate(a->name, b->name)));
+}
+
 // A richer elastic curve that explains the misfit as well as a passing effect leaves the data
 // unable to tell physics from curve shape: both are tied.
 void resolve_curve_degree(DiscoverResult* result, std::vector<std::string>* ties) {
@@ -379,7 +411,8 @@ std::vector<DiscoverCandidate> audit_candidates(const Dataset& dataset, const Op
   return out;
 }
 
-void judge_candidates(const DiscoverOptions& options, const std::vector<FitEffect>* joint, DiscoverResult* result) {
+void judge_candidates(const DiscoverOptions& options, const std::vector<FitEffect>* joint, DiscoverResult* result,
+                      const std::vector<FitEffect>* reversed) {
   result->named.clear();
   const auto floors = floors_by_test(result->candidates);
   int tested = 0;
@@ -388,7 +421,10 @@ void judge_candidates(const DiscoverOptions& options, const std::vector<FitEffec
   for (DiscoverCandidate& c : result->candidates)
     if (c.effect) judge_one(options, threshold, candidate_floor(*c.effect, floors), &c);
   std::vector<std::string> ties;
-  if (joint) resolve_joint(*joint, threshold, floors, options.min_excess_shrink, result, &ties);
+  if (joint && reversed && joint->size() == 2 && reversed->size() == 2)
+    resolve_pair(*joint, *reversed, threshold, result, &ties);
+  else if (joint)
+    resolve_joint(*joint, threshold, floors, options.min_excess_shrink, result, &ties);
   resolve_curve_degree(result, &ties);
   for (const DiscoverCandidate& c : result->candidates) {
     if (c.status == kNamed) result->named.push_back(c.name);
@@ -919,7 +955,16 @@ DiscoverResult run_discover(const Dataset& dataset, const Options& config, const
     const auto t_refit = Clock::now();
     result.refit = fit_effects_from(work, dataset, result.baseline.parameters, passing, "refit", result.baseline.finest_level);
     work.timed("refit", t_refit);
-    if (passing.size() >= 2) judge_candidates(options, &result.refit->effects, &result);
+    if (passing.size() == 2) {
+      // The other order, at the screening level: each effect scored after the other.
+      if (progress) progress(0, fmt::format("refit: [{}, {}] in the other order, at the screening level", passing[1], passing[0]));
+      const auto t_reverse = Clock::now();
+      const FitReport reverse = fit_effects_from(work, dataset, result.baseline.parameters, {passing[1], passing[0]}, "refit reversed");
+      work.timed("refit reversed", t_reverse);
+      judge_candidates(options, &result.refit->effects, &result, &reverse.effects);
+    } else if (passing.size() > 2) {
+      judge_candidates(options, &result.refit->effects, &result);
+    }
   } else if (passing.size() == 1) {
     result.refit = reports.at(passing.front());
   }

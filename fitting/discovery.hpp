@@ -138,8 +138,10 @@ std::vector<DiscoverCandidate> audit_candidates(const Dataset& dataset, const Op
                                                 const DiscoverOptions& options, const Registry& registry);
 
 /// Step 4 on candidates whose `effect` is set: statuses, reasons, `named` and the verdict's
-/// kind (the joint refit's records, when several pass, come in `joint`). Pure: no fits.
-void judge_candidates(const DiscoverOptions& options, const std::vector<FitEffect>* joint, DiscoverResult* result);
+/// kind (the joint refit's records, when several pass, come in `joint`; with two passing, the
+/// refit in the other order in `reversed`, so that each is scored after the other). Pure: no fits.
+void judge_candidates(const DiscoverOptions& options, const std::vector<FitEffect>* joint, DiscoverResult* result,
+                      const std::vector<FitEffect>* reversed = nullptr);
 
 /// The whole workflow (above). Throws InputError for a config or dataset it cannot use.
 DiscoverResult run_discover(const Dataset& dataset, const Options& config, const Registry& registry,

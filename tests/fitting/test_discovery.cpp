@@ -26,10 +26,11 @@ DiscoverCandidate fitted(const std::string& name, double p, double before, doubl
   return {name, "", "", e, {}};
 }
 
-DiscoverResult judged(std::vector<DiscoverCandidate> candidates, const std::vector<FitEffect>* joint = nullptr) {
+DiscoverResult judged(std::vector<DiscoverCandidate> candidates, const std::vector<FitEffect>* joint = nullptr,
+                      const std::vector<FitEffect>* reversed = nullptr) {
   DiscoverResult r;
   r.candidates = std::move(candidates);
-  judge_candidates(DiscoverOptions{}, joint, &r);
+  judge_candidates(DiscoverOptions{}, joint, &r, reversed);
   return r;
 }
 
@@ -138,6 +139,26 @@ TEST(DiscoverJudge, AnEffectThatAddsNothingAndExplainsFarLessIsRejectedNotTied) 
   joint[1] = *both[1].effect;
   joint[1].score_p_value = 0.4;
   EXPECT_EQ(judged(both, &joint).verdict.rfind("tied: hysteresis|rate-dependence", 0), 0u);
+}
+
+TEST(DiscoverJudge, TwoEffectsScoredEachAfterTheOtherKeepWhatAddsSomething) {
+  // Both pass alone, and explain nearly as much (1.2 % and 1.3 % at a 1 % floor).
+  std::vector<DiscoverCandidate> both = {fitted("hysteresis", 1e-4, 0.08, 0.012), fitted("rate-dependence", 1e-4, 0.08, 0.013)};
+  std::vector<FitEffect> joint = {*both[0].effect, *both[1].effect}, reversed = {*both[1].effect, *both[0].effect};
+  const auto verdict = [&](double rate_after_hysteresis, double hysteresis_after_rate) {
+    joint[1].score_p_value = rate_after_hysteresis;
+    reversed[1].score_p_value = hysteresis_after_rate;
+    return judged(both, &joint, &reversed);
+  };
+  // Rate adds something after friction, friction nothing after rate: rate, not a tie.
+  const DiscoverResult rate = verdict(1e-4, 0.4);
+  EXPECT_EQ(rate.named, std::vector<std::string>{"rate-dependence"});
+  EXPECT_EQ(rate.candidates[0].status, "rejected");
+  EXPECT_NE(rate.candidates[0].reason.find("explains nothing rate-dependence does not"), std::string::npos)
+      << rate.candidates[0].reason;
+  EXPECT_EQ(verdict(0.4, 1e-4).named, std::vector<std::string>{"hysteresis"});
+  EXPECT_EQ(verdict(1e-4, 1e-4).named.size(), 2u);  // each adds to the other: both
+  EXPECT_EQ(verdict(0.4, 0.6).verdict.rfind("tied: hysteresis|rate-dependence", 0), 0u);  // neither: a tie
 }
 
 TEST(DiscoverJudge, ARicherCurveThatExplainsTheMisfitTooIsTiedWithTheEffect) {
