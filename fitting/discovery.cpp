@@ -246,6 +246,8 @@ void resolve_pair(const std::vector<FitEffect>& joint, const std::vector<FitEffe
                         [&](const DiscoverCandidate& d) { return d.name == name && d.status == kNamed; });
   };
   const FitEffect &b_after_a = joint[1], &a_after_b = reversed[1];
+  if (a_after_b.effect != joint[0].effect || b_after_a.effect != reversed[0].effect)
+    throw std::logic_error("discover: the two joint refits are not in opposite orders");
   auto a = candidate(a_after_b.effect), b = candidate(b_after_a.effect);
   if (a == result->candidates.end() || b == result->candidates.end()) return;
   const bool a_adds = a_after_b.score_p_value < threshold, b_adds = b_after_a.score_p_value < threshold;
@@ -637,18 +639,20 @@ Options effect_stages_config(const Options& fit, const std::vector<std::string>&
                              int level, bool fit_effects, const Registry& registry) {
   Options config = with_effects(fit, effects, registry);
   std::vector<ComponentChoice> protocol = {start_from_stage(params_path, registry)};
-  for (ComponentChoice stage : fit.get_component_list("protocol")) {
+  for (ComponentChoice stage : fit.get_component_list("protocol"))
     if (stage.name == kTensileCurveStage) {
       stage.options.set("fit", false);
-    } else if (stage.name == kEffectFitStage &&
-               std::find(effects.begin(), effects.end(), stage.options.get_string("effect")) != effects.end()) {
-      stage.options.set("level", level);
-      if (!fit_effects) stage.options.set("fit", false);
-    } else {
-      continue;
+      protocol.push_back(std::move(stage));
     }
-    protocol.push_back(std::move(stage));
-  }
+  // The effect-fit stages in the order of `effects`, not the protocol's: each is scored after
+  // the ones before it, and the pairwise check refits two in both orders.
+  for (const std::string& effect : effects)
+    for (ComponentChoice stage : fit.get_component_list("protocol"))
+      if (stage.name == kEffectFitStage && stage.options.get_string("effect") == effect) {
+        stage.options.set("level", level);
+        if (!fit_effects) stage.options.set("fit", false);
+        protocol.push_back(std::move(stage));
+      }
   config.set("protocol", protocol);
   apply_override(config, fit_config_schema(), &registry, fmt::format("resolution.levels={}", std::max(level + 1, 1)));
   return config;
