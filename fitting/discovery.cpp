@@ -963,9 +963,17 @@ DiscoverResult run_discover(const Dataset& dataset, const Options& config, const
       // The other order, at the screening level: each effect scored after the other.
       if (progress) progress(0, fmt::format("refit: [{}, {}] in the other order, at the screening level", passing[1], passing[0]));
       const auto t_reverse = Clock::now();
-      const FitReport reverse = fit_effects_from(work, dataset, result.baseline.parameters, {passing[1], passing[0]}, "refit reversed");
-      work.timed("refit reversed", t_reverse);
-      judge_candidates(options, &result.refit->effects, &result, &reverse.effects);
+      try {
+        const FitReport reverse = fit_effects_from(work, dataset, result.baseline.parameters, {passing[1], passing[0]}, "refit reversed");
+        work.timed("refit reversed", t_reverse);
+        judge_candidates(options, &result.refit->effects, &result, &reverse.effects);
+      } catch (const std::exception& e) {
+        // Only a judge's aid: without it, the protocol's order and the alone fits decide.
+        work.timed("refit reversed", t_reverse);
+        result.notes.push_back(std::string("the refit in the other order failed, so only the first order was scored: ") + e.what());
+        if (progress) progress(0, "refit reversed: failed: " + std::string(e.what()));
+        judge_candidates(options, &result.refit->effects, &result);
+      }
     } else if (passing.size() > 2) {
       judge_candidates(options, &result.refit->effects, &result);
     }
