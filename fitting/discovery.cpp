@@ -188,6 +188,12 @@ const FitEffect* record_of(const std::vector<FitEffect>& records, const std::str
   return nullptr;
 }
 
+// The candidate called `name`, end() when there is none.
+std::vector<DiscoverCandidate>::iterator find_candidate(DiscoverResult* result, const std::string& name) {
+  return std::find_if(result->candidates.begin(), result->candidates.end(),
+                      [&](const DiscoverCandidate& d) { return d.name == name; });
+}
+
 // The excess over the floor a candidate fitted alone leaves, zero when it is within what the
 // floor's own estimate can resolve: the floor is a mean |u| over the effect's n rows, whose
 // relative standard error for Gaussian u is √(π/2 − 1)/√n ≈ 0.76/√n, 5–6 % at the 140–300 rows
@@ -207,16 +213,12 @@ double excess_left(const DiscoverCandidate& c, const std::map<std::string, doubl
 // 3.28 % against hysteresis's 0.89 %; at one speed the two are within that factor, a tie).
 void resolve_joint(const std::vector<FitEffect>& joint, double threshold, const std::map<std::string, double>& floors,
                    double min_excess_shrink, DiscoverResult* result, std::vector<std::string>* ties) {
-  const auto named = [&](const std::string& name) {
-    return std::find_if(result->candidates.begin(), result->candidates.end(),
-                        [&](const DiscoverCandidate& d) { return d.name == name; });
-  };
   std::vector<std::string> earlier;
   for (const FitEffect& e : joint) {
-    auto c = named(e.effect);
+    auto c = find_candidate(result, e.effect);
     if (c == result->candidates.end() || c->status != kNamed) continue;
     if (!earlier.empty() && !(e.score_p_value < threshold)) {
-      const auto first = named(earlier.front());
+      const auto first = find_candidate(result, earlier.front());
       const double mine = excess_left(*c, floors), theirs = excess_left(*first, floors);
       c->reason += fmt::format("; after {} in the joint refit its calibrated p is {:.2g}: it explains what {} does",
                                earlier.front(), e.score_p_value, earlier.front());
@@ -241,15 +243,12 @@ void resolve_joint(const std::vector<FitEffect>& joint, double threshold, const 
 // other direction from the fits alone, this measures it.
 void resolve_pair(const std::vector<FitEffect>& joint, const std::vector<FitEffect>& reversed, double threshold,
                   DiscoverResult* result, std::vector<std::string>* ties) {
-  const auto candidate = [&](const std::string& name) {
-    return std::find_if(result->candidates.begin(), result->candidates.end(),
-                        [&](const DiscoverCandidate& d) { return d.name == name && d.status == kNamed; });
-  };
   const FitEffect &b_after_a = joint[1], &a_after_b = reversed[1];
   if (a_after_b.effect != joint[0].effect || b_after_a.effect != reversed[0].effect)
     throw std::logic_error("discover: the two joint refits are not in opposite orders");
-  auto a = candidate(a_after_b.effect), b = candidate(b_after_a.effect);
-  if (a == result->candidates.end() || b == result->candidates.end()) return;
+  auto a = find_candidate(result, a_after_b.effect), b = find_candidate(result, b_after_a.effect);
+  if (a == result->candidates.end() || b == result->candidates.end() || a->status != kNamed || b->status != kNamed)
+    return;
   const bool a_adds = a_after_b.score_p_value < threshold, b_adds = b_after_a.score_p_value < threshold;
   const auto say = [&](DiscoverCandidate& c, const FitEffect& after, const std::string& other) {
     c.reason += fmt::format("; after {} in the joint refit its calibrated p is {:.2g}", other, after.score_p_value);
