@@ -49,6 +49,7 @@ struct Curve {
   int degree() const { return static_cast<int>(mu.size()); }
   /// The linear curve η(x) = x (degree 1, μ = 1, α = 1): orthotropic St. Venant–Kirchhoff.
   static Curve linear() { return Curve{{1.0}, {1.0}}; }
+  bool operator==(const Curve& other) const = default;
 };
 
 /// Validity box of the orthotropic strain (paper §3.2, model.md §4). nullopt = "off" (±∞).
@@ -59,6 +60,7 @@ struct Cutoffs {
   std::optional<double> E22_min = 0.0;
   std::optional<double> E22_max;
   std::optional<double> E12_max;
+  bool operator==(const Cutoffs& other) const = default;
 };
 
 struct MaterialParameters {
@@ -98,6 +100,8 @@ struct MaterialParameters {
 
   /// a12 = ½ min(a11, a22): the paper's choice, since the standard tests do not identify a12.
   static double tied_a12(double a11, double a22) { return 0.5 * std::min(a11, a22); }
+  /// Every member equal (exactly: a cache's key, experiments/shared_schedule.hpp).
+  bool operator==(const MaterialParameters& other) const = default;
 };
 
 /// Offsets of the blocks in the flat vector (used by the law's derivative code).

@@ -1,6 +1,9 @@
 #include "effects/effect_experiment.hpp"
 
+#include <algorithm>
 #include <stdexcept>
+
+#include "experiments/shared_schedule.hpp"
 
 namespace twill {
 namespace {
@@ -86,14 +89,11 @@ bool EffectExperiment::predict_setup_derivatives(const MaterialParameters& k, co
   return true;
 }
 
-std::unique_ptr<Experiment> create_experiment(const Registry& registry, const std::string& name, const Options& options,
-                                              const ExperimentInput& input) {
-  const ComponentChoice choice{registry_category::kExperiment, name, options};
-  if (input.start.effects.empty()) return registry.create<ExperimentFactories>(registry_category::kExperiment, choice, input);
-  ExperimentInput adjusted = input;
-  adjusted.start = law_adjusted(input.start, registry);
-  std::unique_ptr<Experiment> experiment =
-      registry.create<ExperimentFactories>(registry_category::kExperiment, choice, adjusted);
+namespace {
+
+// What the observable hooks see of the run `input` describes (the strip's size from the
+// experiment's options where the input leaves it at 0).
+RunConditions run_conditions(const Options& options, const ExperimentInput& input) {
   RunConditions run;
   run.angle_deg = input.angle_deg;
   auto resolved = [&options](double given, const char* key) {
@@ -103,12 +103,82 @@ std::unique_ptr<Experiment> create_experiment(const Registry& registry, const st
   run.gauge_length_mm = resolved(input.length_mm, "gauge_length_mm");
   run.rate_mm_min = input.rate_mm_min;
   run.time_s = input.time_s;
-  return std::make_unique<EffectExperiment>(std::move(experiment), registry, std::move(run));
+  return run;
+}
+
+// `experiment` (built from the law-adjusted material) in the effects of input.start, or
+// itself when there are none.
+std::unique_ptr<Experiment> with_effects(std::unique_ptr<Experiment> experiment, const Registry& registry,
+                                         const Options& options, const ExperimentInput& input) {
+  if (input.start.effects.empty()) return experiment;
+  return std::make_unique<EffectExperiment>(std::move(experiment), registry, run_conditions(options, input));
+}
+
+// The input with the law-adjusted material its inner experiment starts from.
+ExperimentInput law_adjusted_input(const ExperimentInput& input, const Registry& registry) {
+  ExperimentInput adjusted = input;
+  if (!input.start.effects.empty()) adjusted.start = law_adjusted(input.start, registry);
+  return adjusted;
+}
+
+// Whether two inputs are the same strip (create_experiments: they may share a simulation).
+bool same_strip(const ExperimentInput& a, const ExperimentInput& b) {
+  return a.angle_deg == b.angle_deg && a.width_mm == b.width_mm && a.length_mm == b.length_mm &&
+         a.cells_across == b.cells_across && a.cells_along == b.cells_along && a.start == b.start;
+}
+
+// The inputs by strip (same_strip), in order of first appearance.
+std::vector<std::vector<size_t>> strips(const std::vector<ExperimentInput>& inputs) {
+  std::vector<std::vector<size_t>> groups;
+  for (size_t i = 0; i < inputs.size(); ++i) {
+    auto at = std::find_if(groups.begin(), groups.end(),
+                           [&](const std::vector<size_t>& g) { return same_strip(inputs[g.front()], inputs[i]); });
+    if (at == groups.end()) groups.push_back({i});
+    else at->push_back(i);
+  }
+  return groups;
+}
+
+}  // namespace
+
+std::unique_ptr<Experiment> create_experiment(const Registry& registry, const std::string& name, const Options& options,
+                                              const ExperimentInput& input) {
+  const ComponentChoice choice{registry_category::kExperiment, name, options};
+  std::unique_ptr<Experiment> experiment = registry.create<ExperimentFactories>(
+      registry_category::kExperiment, choice, law_adjusted_input(input, registry));
+  return with_effects(std::move(experiment), registry, options, input);
 }
 
 std::unique_ptr<Experiment> create_experiment(const Registry& registry, const ComponentChoice& choice,
                                               const ExperimentInput& input) {
   return create_experiment(registry, choice.name, choice.options, input);
+}
+
+std::vector<std::shared_ptr<Experiment>> create_experiments(const Registry& registry, const ComponentChoice& choice,
+                                                            const std::vector<ExperimentInput>& inputs) {
+  std::vector<std::shared_ptr<Experiment>> out(inputs.size());
+  for (const std::vector<size_t>& group : strips(inputs)) {
+    std::vector<std::vector<double>> schedules;
+    for (size_t i : group) schedules.push_back(inputs[i].schedule);
+    const ScheduleUnion u = schedule_union(schedules);
+    if (!shares_enough(u, schedules)) {
+      for (size_t i : group) out[i] = create_experiment(registry, choice, inputs[i]);
+      continue;
+    }
+    ExperimentInput whole = law_adjusted_input(inputs[group.front()], registry);
+    whole.label += " (shared by " + std::to_string(group.size()) + " runs)";
+    whole.schedule = u.entries;
+    whole.measured.resize(0);
+    whole.time_s.clear();
+    auto shared = std::make_shared<SharedSchedule>(
+        registry.create<ExperimentFactories>(registry_category::kExperiment, choice, whole));
+    for (size_t j = 0; j < group.size(); ++j) {
+      const ExperimentInput& input = inputs[group[j]];
+      auto view = std::make_unique<ScheduleView>(shared, input.label, input.schedule, input.measured, u.rows[j], j == 0);
+      out[group[j]] = with_effects(std::move(view), registry, choice.options, input);
+    }
+  }
+  return out;
 }
 
 std::vector<std::unique_ptr<Effect>> instantiate_effects(const MaterialParameters& k, const Registry& registry) {

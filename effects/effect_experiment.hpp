@@ -16,6 +16,7 @@
 // the flat vector the caller passes (a fit moves them like any parameter).
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "core/registry.hpp"
 #include "effects/effect.hpp"
@@ -70,6 +71,14 @@ std::unique_ptr<Experiment> create_experiment(const Registry& registry, const st
 /// As above with the experiment's options resolved from a component choice.
 std::unique_ptr<Experiment> create_experiment(const Registry& registry, const ComponentChoice& choice,
                                               const ExperimentInput& input);
+
+/// create_experiment for the runs of one fit at once (the same discretisation and solver):
+/// inputs that are the same strip (angle, size, resolution, material) share one simulation
+/// on the union of their schedules when that saves at least half the points
+/// (experiments/shared_schedule.hpp); each keeps its own schedule, measured values, label,
+/// clock and effects' observable hooks. Same order as `inputs`.
+std::vector<std::shared_ptr<Experiment>> create_experiments(const Registry& registry, const ComponentChoice& choice,
+                                                            const std::vector<ExperimentInput>& inputs);
 
 /// What the observable hooks of `effects` add to a run of m observables at the law-adjusted
 /// material k' (the sum of their ObservableChange), for code that simulates the elastic part

@@ -226,8 +226,7 @@ ExperimentInput FitContext::experiment_input(std::string label, double angle_deg
   return input;
 }
 
-std::shared_ptr<Experiment> FitContext::tensile_experiment(const RunData& d, int level, const MaterialParameters& p,
-                                                           const std::string& name) const {
+ExperimentInput FitContext::tensile_input(const RunData& d, int level, const MaterialParameters& p) const {
   const TensileSetup s = setup_for(*d.test, level);
   ExperimentInput input =
       experiment_input(run_label(d), strip_angle(d), s.width_mm, s.cells_across, s.cells_along, p);
@@ -236,8 +235,25 @@ std::shared_ptr<Experiment> FitContext::tensile_experiment(const RunData& d, int
   input.measured = d.force_N;
   input.rate_mm_min = d.test->rate_mm_min.value_or(0.0);
   input.time_s = d.time_s;
-  return create_experiment(registry_, name.empty() ? config_.tensile_experiment.name : name,
-                           config_.tensile_experiment.options, input);
+  return input;
+}
+
+ComponentChoice FitContext::tensile_choice(const std::string& name) const {
+  ComponentChoice choice = config_.tensile_experiment;
+  if (!name.empty()) choice.name = name;
+  return choice;
+}
+
+std::shared_ptr<Experiment> FitContext::tensile_experiment(const RunData& d, int level, const MaterialParameters& p,
+                                                           const std::string& name) const {
+  return create_experiment(registry_, tensile_choice(name), tensile_input(d, level, p));
+}
+
+std::vector<std::shared_ptr<Experiment>> FitContext::tensile_experiments(const std::vector<const RunData*>& runs,
+                                                                         int level, const MaterialParameters& p) const {
+  std::vector<ExperimentInput> inputs;
+  for (const RunData* d : runs) inputs.push_back(tensile_input(*d, level, p));
+  return create_experiments(registry_, tensile_choice(""), inputs);
 }
 
 std::shared_ptr<Experiment> FitContext::bend_experiment(const BendTest& b, const MaterialParameters& p) const {
@@ -269,12 +285,12 @@ FitContext::CurveFit FitContext::fit_curve(const CurveStage& stage, int level, M
   const auto runs = runs_for(stage.angle_deg);
   std::vector<std::shared_ptr<Predictor>> predictors;
   std::string resolution;
-  for (const RunData* d : runs) {
-    const TensileSetup s = setup_for(*d->test, level);
+  const std::vector<std::shared_ptr<Experiment>> experiments = tensile_experiments(runs, level, *p);
+  for (size_t i = 0; i < runs.size(); ++i) {
+    const TensileSetup s = setup_for(*runs[i]->test, level);
     resolution = resolution_text(s.cells_across, s.cells_along);
-    const std::shared_ptr<Experiment> experiment = tensile_experiment(*d, level, *p);
-    last_predictor[d] = {level, experiment};
-    predictors.push_back(experiment);
+    last_predictor[runs[i]] = {level, experiments[i]};
+    predictors.push_back(experiments[i]);
   }
   ParameterMap map(*p, stage.free_parameters());
   FitObjective objective(map, predictors);

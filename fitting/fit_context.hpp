@@ -161,6 +161,11 @@ class FitContext {
   /// registered experiment with the same options, e.g. tensile-lateral) predicting d.force_N.
   std::shared_ptr<Experiment> tensile_experiment(const RunData& d, int level, const MaterialParameters& p,
                                                  const std::string& name = "") const;
+  /// The fit runs' experiments at `level` from `p` (config experiments.tensile), each
+  /// predicting its run's forces; runs of one strip share a simulation where that halves the solves
+  /// (create_experiments, experiments/shared_schedule.hpp). Same order as `runs`.
+  std::vector<std::shared_ptr<Experiment>> tensile_experiments(const std::vector<const RunData*>& runs, int level,
+                                                               const MaterialParameters& p) const;
   /// A bend test's experiment from `p` at the mean measured overhang (config experiments.bend,
   /// its cells its own), predicting the measured chord angle.
   std::shared_ptr<Experiment> bend_experiment(const BendTest& b, const MaterialParameters& p) const;
@@ -192,6 +197,10 @@ class FitContext {
   void keep_scales(const std::vector<const RunData*>& runs, const std::vector<double>& scales);
 
  private:
+  ExperimentInput tensile_input(const RunData& d, int level, const MaterialParameters& p) const;
+  /// The config's tensile experiment, or the registered `name` with its options.
+  ComponentChoice tensile_choice(const std::string& name) const;
+
   const Dataset& dataset_;
   const FitConfig& config_;
   const Registry& registry_;

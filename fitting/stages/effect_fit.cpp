@@ -121,10 +121,11 @@ class EffectFit final : public FitStage {
     select_runs(context);
     std::vector<std::shared_ptr<Predictor>> predictors;
     std::vector<std::string> tests;  // each predictor's test, for the per-test breakdown
-    for (const RunData& d : runs_) {
-      predictors.push_back(context.tensile_experiment(d, level, context.params));
-      tests.push_back(d.test->label);
-    }
+    std::vector<const RunData*> force_runs;
+    for (const RunData& d : runs_) force_runs.push_back(&d);
+    for (const auto& experiment : context.tensile_experiments(force_runs, level, context.params))
+      predictors.push_back(experiment);
+    for (const RunData& d : runs_) tests.push_back(d.test->label);
     for (const RunData& d : lateral_runs_) {
       predictors.push_back(context.tensile_experiment(d, level, context.params, kLateralExperiment));
       tests.push_back(d.test->label + " lateral strain");
@@ -144,8 +145,6 @@ class EffectFit final : public FitStage {
     ParameterMap::Options map_options;
     map_options.ranges = ranges_of(parameters);
 
-    std::vector<const RunData*> force_runs;
-    for (const RunData& d : runs_) force_runs.push_back(&d);
     FitEffect result = effect_record(context, level, predictors);
     if (!options_.fit) {  // evaluated where it stands: no score (nothing is fitted), no noise floor
       set_errors(tests,
@@ -583,8 +582,8 @@ class EffectFit final : public FitStage {
   // flatter the nominal model.
   static std::vector<double> errors_at_nominal_angles(FitContext& context, const std::vector<const RunData*>& runs,
                                                       int level) {
-    std::vector<std::shared_ptr<Predictor>> predictors;
-    for (const RunData* d : runs) predictors.push_back(context.tensile_experiment(*d, level, context.params));
+    const auto experiments = context.tensile_experiments(runs, level, context.params);
+    const std::vector<std::shared_ptr<Predictor>> predictors(experiments.begin(), experiments.end());
     std::vector<std::string> curves;  // evaluated at their values, not fitted
     append_curve_parameters(context, &curves);
     return errors_at(context, context.params, curves, {}, predictors, runs);

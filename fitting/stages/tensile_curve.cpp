@@ -226,8 +226,8 @@ class TensileCurveStage final : public FitStage {
     // its own predictors.
     std::vector<std::pair<double, MaterialParameters>> scored(candidates.size());
     tbb::parallel_for(size_t{0}, candidates.size(), [&](size_t i) {
-      std::vector<std::shared_ptr<Predictor>> full;
-      for (const RunData* d : runs) full.push_back(context.tensile_experiment(*d, options_.level, candidates[i]));
+      const auto experiments = context.tensile_experiments(runs, options_.level, candidates[i]);
+      const std::vector<std::shared_ptr<Predictor>> full(experiments.begin(), experiments.end());
       ParameterMap map(candidates[i], curve_only);
       FitObjective objective(map, full);
       objective.set_scale_groups(context.scale_groups(runs, full.size()));

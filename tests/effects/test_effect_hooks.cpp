@@ -12,23 +12,13 @@
 #include "effects/hysteresis/hysteresis.hpp"
 #include "effects/poisson/poisson.hpp"
 #include "effects/rate_dependence/rate_dependence.hpp"
+#include "tests/support/acting_effects.hpp"
 #include "tests/support/registered_parts.hpp"
 
 namespace twill {
 namespace {
 
 using namespace twill::testing;
-
-// Effect parameters away from their neutral defaults so that every hook acts: each double
-// option at default + 2 % of its range (inside the bounds for every registered effect).
-ComponentChoice acting(const std::string& effect) {
-  ComponentChoice choice = default_choice(registry_category::kEffect, effect);
-  for (const EffectParameter& p : effect_parameters({choice}, registry())) {
-    const std::string option = p.name.substr(effect.size() + 1);
-    choice.options.set(option, std::min(p.upper, p.value + 0.02 * (p.upper - p.lower)));
-  }
-  return choice;
-}
 
 // Loading, then part of the way back down: path effects differ on the way down.
 constexpr double kRate_mm_min = 300;  // ASTM D5035's 300 mm/min
