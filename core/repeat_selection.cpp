@@ -75,24 +75,30 @@ RepeatSelection random(const TensileTest& test, std::uint64_t engine_seed, const
   return s;
 }
 
+RepeatSelection every_run(const TensileTest& test) {
+  RepeatSelection s;
+  s.runs.resize(test.runs.size());
+  std::iota(s.runs.begin(), s.runs.end(), std::size_t{0});
+  s.reason = "all " + std::to_string(test.runs.size()) + " runs";
+  return s;
+}
+
 RepeatSelection select(const TensileTest& test, RepeatRule rule, std::uint64_t engine_seed,
                        const std::string& seed_text) {
   if (test.runs.empty()) throw InputError({}, "tensile test '" + test.label + "' has no runs");
   switch (rule) {
-    case RepeatRule::All: {
-      RepeatSelection s;
-      s.runs.resize(test.runs.size());
-      std::iota(s.runs.begin(), s.runs.end(), std::size_t{0});
-      s.reason = "all " + std::to_string(test.runs.size()) + " runs";
-      return s;
-    }
+    case RepeatRule::All: return every_run(test);
     case RepeatRule::Largest: return largest(test);
     case RepeatRule::Random: return random(test, engine_seed, seed_text);
     case RepeatRule::Paper:
       return is_principal_direction(test.angle_deg) ? largest(test) : random(test, engine_seed, seed_text);
+    case RepeatRule::LargestOrAll: return is_principal_direction(test.angle_deg) ? largest(test) : every_run(test);
   }
   return {};
 }
+
+constexpr RepeatRule kEveryRule[] = {RepeatRule::Paper, RepeatRule::Largest, RepeatRule::Random, RepeatRule::All,
+                                     RepeatRule::LargestOrAll};
 
 }  // namespace
 
@@ -102,21 +108,24 @@ const char* to_string(RepeatRule rule) {
     case RepeatRule::Largest: return "largest";
     case RepeatRule::Random: return "random";
     case RepeatRule::All: return "all";
+    case RepeatRule::LargestOrAll: return "largest-or-all";
   }
   return "";
 }
 
 std::vector<std::pair<std::string, RepeatRule>> repeat_rule_names() {
   std::vector<std::pair<std::string, RepeatRule>> names;
-  for (RepeatRule r : {RepeatRule::Paper, RepeatRule::Largest, RepeatRule::Random, RepeatRule::All})
-    names.emplace_back(to_string(r), r);
+  for (RepeatRule r : kEveryRule) names.emplace_back(to_string(r), r);
   return names;
 }
 
 RepeatRule repeat_rule_from_string(const std::string& name) {
-  for (RepeatRule r : {RepeatRule::Paper, RepeatRule::Largest, RepeatRule::Random, RepeatRule::All})
+  std::string known;
+  for (RepeatRule r : kEveryRule) {
     if (name == to_string(r)) return r;
-  throw InputError({}, "unknown repeat rule '" + name + "' (known: paper, largest, random, all)");
+    known += (known.empty() ? "" : ", ") + std::string(to_string(r));
+  }
+  throw InputError({}, "unknown repeat rule '" + name + "' (known: " + known + ")");
 }
 
 bool is_principal_direction(double angle_deg) {

@@ -31,9 +31,14 @@ enum class RepeatRule {
   Largest,  ///< largest forces, whatever the angle
   Random,   ///< one random run, whatever the angle
   All,      ///< every run
+  /// Largest forces for warp/weft (the paper's), every run otherwise: where the paper has no
+  /// alignment criterion and draws one run, every run with its specimen scale
+  /// (`repeats.scale: per-run`) fits the geometric-mean specimen, whose offset from the
+  /// population's is the scatter over √n instead of one draw's (docs/fitting.md §3b).
+  LargestOrAll,
 };
 
-/// "paper", "largest", "random", "all".
+/// "paper", "largest", "random", "all", "largest-or-all".
 const char* to_string(RepeatRule rule);
 /// Parses the names above; throws InputError listing them otherwise.
 RepeatRule repeat_rule_from_string(const std::string& name);

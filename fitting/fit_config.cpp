@@ -37,12 +37,13 @@ OptionBindings<FitStopping> stopping_bindings() {
 OptionBindings<FitRepeats> repeats_bindings() {
   using S = FitRepeats;
   return {enum_option<S>("rule", &S::rule, repeat_rule_names(),
-                         "paper: largest forces for warp/weft, one random run for others"),
+                         "paper: largest forces for warp/weft, one random run for others; largest-or-all: every run for "
+                         "others"),
           integer_option<S>("seed", &S::seed, "seed of the random choice", at_least(0)),
           enum_option<S>("scale", &S::scale,
                          {{"none", SpecimenScale::None}, {"per-run", SpecimenScale::PerRun}},
                          "per-run: each fit run's forces times its own scale, a test's scales with geometric "
-                         "mean 1 (the repeat scatter; needs rule=all to matter)")};
+                         "mean 1 (the repeat scatter; matters where a rule fits several runs: all, largest-or-all)")};
 }
 
 OptionBindings<FitDataSelection> data_bindings() {

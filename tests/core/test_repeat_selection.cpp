@@ -106,6 +106,13 @@ TEST(RepeatSelection, DatasetLevelRulesAndAll) {
   const auto all = select_repeats(d.tensile[3], RepeatRule::All, 0);
   EXPECT_EQ(all.runs, (std::vector<std::size_t>{0, 1, 2, 3, 4}));
 
+  // largest-or-all: the paper's warp/weft choice, every run at the other angles.
+  const auto largest_or_all = select_repeats(d, RepeatRule::LargestOrAll, 42);
+  EXPECT_EQ(largest_or_all[0].runs, paper[0].runs);
+  EXPECT_EQ(largest_or_all[1].runs, paper[1].runs);
+  for (std::size_t i = 2; i < 5; ++i) EXPECT_EQ(largest_or_all[i].runs, all.runs);
+  EXPECT_EQ(repeat_rule_from_string("largest-or-all"), RepeatRule::LargestOrAll);
+
   EXPECT_EQ(repeat_rule_from_string("largest"), RepeatRule::Largest);
   try {
     repeat_rule_from_string("best");
