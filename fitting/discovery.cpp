@@ -530,16 +530,38 @@ std::string misfit_range(const FitReport& baseline, const std::string& test, dou
   return lo <= hi ? fmt::format(", {:g}–{:g} mm", lo, hi) : "";
 }
 
-// With nothing named: the test whose error is furthest above its floor, when it is more than
-// `ratio` times the floor, as "unexplained at <test, range>".
-std::string unexplained(const DiscoverResult& result, double ratio) {
+// curve-degree's error on `test`'s rows (NaN when it was not fitted or has no such test).
+double richer_curve_error(const DiscoverResult& result, const std::string& test) {
+  for (const DiscoverCandidate& c : result.candidates)
+    if (c.name == kCurveDegreeCandidate && c.effect)
+      for (const FitEffectTest& t : c.effect->tests)
+        if (t.test == test) return t.error_with;
+  return std::numeric_limits<double>::quiet_NaN();
+}
+
+}  // namespace
+
+std::string unexplained_misfit(const DiscoverResult& result, double ratio, std::string* note) {
   const DiscoverGap* worst = nullptr;
-  for (const DiscoverGap& g : result.gap)
-    if (std::isfinite(g.floor) && g.before > ratio * g.floor && (!worst || g.before / g.floor > worst->before / worst->floor))
-      worst = &g;
+  for (const DiscoverGap& g : result.gap) {
+    if (!std::isfinite(g.floor) || g.before <= ratio * g.floor) continue;
+    // A misfit the richer curve removes is the protocol's curve shape (its degree search stops
+    // at its target error, not at the noise), which the curve-degree candidate stands for.
+    const double richer = richer_curve_error(result, g.test);
+    if (std::isfinite(richer) && richer <= ratio * g.floor) {
+      if (note)
+        *note += fmt::format("{}{} is {:.1f}× its floor with the protocol's curves and {:.1f}× with each curve one "
+                             "degree higher (curve-degree): the curves' shape, not a missing effect",
+                             note->empty() ? "" : "; ", g.test, g.before / g.floor, richer / g.floor);
+      continue;
+    }
+    if (!worst || g.before / g.floor > worst->before / worst->floor) worst = &g;
+  }
   if (!worst) return "";
   return std::string(kUnexplained) + " at " + worst->test + misfit_range(result.baseline, worst->test, ratio * worst->floor);
 }
+
+namespace {
 
 // The dataset with each fit test's runs of index parity `parity` (a test with one run keeps it:
 // it is in both folds, so never held out).
@@ -592,7 +614,11 @@ std::vector<DiscoverFold> speed_folds(const Dataset& dataset) {
   return folds;
 }
 
-bool has_repeats(const Dataset& dataset);
+bool has_repeats(const Dataset& dataset) {
+  for (const TensileTest& test : dataset.tensile)
+    if (test.role == TestRole::Fit && test.runs.size() >= 2) return true;
+  return false;
+}
 
 }  // namespace
 
@@ -613,12 +639,6 @@ std::vector<DiscoverFold> discover_folds(const Dataset& dataset, Effect::HeldOut
 }
 
 namespace {
-
-bool has_repeats(const Dataset& dataset) {
-  for (const TensileTest& test : dataset.tensile)
-    if (test.role == TestRole::Fit && test.runs.size() >= 2) return true;
-  return false;
-}
 
 ComponentChoice start_from_stage(const std::string& params_path, const Registry& registry) {
   const RegistryCategory* stages = registry.find_category(registry_category::kStage);
@@ -981,8 +1001,10 @@ DiscoverResult run_discover(const Dataset& dataset, const Options& config, const
   }
   measure_gap(result, floors_by_test(result.candidates), &result.gap, &result.gap_rows, &result.curves);
   if (result.verdict == kNone) {
-    const std::string misfit = unexplained(result, options.unexplained_ratio);
+    std::string note;
+    const std::string misfit = unexplained_misfit(result, options.unexplained_ratio, &note);
     if (!misfit.empty()) result.verdict = misfit;
+    if (!note.empty()) result.notes.push_back(note);
   }
   if (with_status(result, kUntestable).size() + with_status(result, kFailed).size() == result.candidates.size())
     result.notes.push_back("no candidate could be tested: the verdict rests on the baseline alone");

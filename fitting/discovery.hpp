@@ -137,6 +137,12 @@ Options discover_fit_config(const Options& config);
 std::vector<DiscoverCandidate> audit_candidates(const Dataset& dataset, const Options& fit_config,
                                                 const DiscoverOptions& options, const Registry& registry);
 
+/// With nothing named: "unexplained at <test, range>" for the test whose baseline error is
+/// furthest above `ratio` times its floor, or "" when none is. A test that the curve-degree
+/// candidate's richer curves bring within `ratio` times its floor is the curves' shape, not
+/// unexplained: it is said in `note` instead (docs/discovery.md §1).
+std::string unexplained_misfit(const DiscoverResult& result, double ratio, std::string* note);
+
 /// Step 4 on candidates whose `effect` is set: statuses, reasons, `named` and the verdict's
 /// kind (the joint refit's records, when several pass, come in `joint`; with two passing, the
 /// refit in the other order in `reversed`, so that each is scored after the other). Pure: no fits.

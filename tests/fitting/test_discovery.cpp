@@ -178,6 +178,29 @@ TEST(DiscoverJudge, ARicherCurveThatExplainsTheMisfitTooIsTiedWithTheEffect) {
   EXPECT_EQ(judged({fitted("hysteresis", 1e-4, 0.08, 0.012), curve}).named, std::vector<std::string>{"hysteresis"});
 }
 
+// The null twin of rates.py seed 1 at 8×12 (2026-12-04): nothing named, warp 0.91 % against a
+// floor of 0.38 % with the protocol's curves, 0.58 % overall with each curve one degree higher.
+TEST(DiscoverJudge, AMisfitTheRicherCurveRemovesIsTheCurvesShapeNotUnexplained) {
+  DiscoverResult r;
+  r.gap = {{"warp", 0.0091, 0.0091, 0.0038}, {"weft", 0.011, 0.011, 0.006}};
+  DiscoverCandidate curve = fitted(kCurveDegreeCandidate, std::numeric_limits<double>::quiet_NaN(), 0.01, 0.006);
+  curve.effect->tests = {{"warp", 1, 0.0091, 0.0052, std::numeric_limits<double>::quiet_NaN()},
+                         {"weft", 1, 0.011, 0.008, std::numeric_limits<double>::quiet_NaN()}};
+  curve.status = "rejected";
+  std::string note;
+  // Without the candidate: warp is 2.4× its floor, unexplained.
+  EXPECT_EQ(unexplained_misfit(r, 2.0, &note).rfind("unexplained at warp", 0), 0u);
+  EXPECT_EQ(note, "");
+  // With it: warp's richer-curve error is 1.4× the floor: the curves' shape, said in a note.
+  r.candidates = {curve};
+  EXPECT_EQ(unexplained_misfit(r, 2.0, &note), "");
+  EXPECT_NE(note.find("warp is 2.4× its floor"), std::string::npos) << note;
+  // A misfit the richer curve leaves above the ratio stays unexplained.
+  r.candidates[0].effect->tests[0].error_with = 0.0085;
+  note.clear();
+  EXPECT_EQ(unexplained_misfit(r, 2.0, &note).rfind("unexplained at warp", 0), 0u);
+}
+
 // ---- the held-out folds --------------------------------------------------------------------
 
 TensileTest test_at(const std::string& label, double angle, std::optional<double> speed, int specimens,
