@@ -50,6 +50,7 @@ struct TensileSetup {
   /// Ceres-style check naming the first offending field.
   bool validate(std::string* error) const;
   StripSpec strip() const;
+  bool operator==(const TensileSetup&) const = default;  ///< the same strip and mesh
 };
 
 struct TensilePoint {

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <stdexcept>
+#include <vector>
 
 #include "core/option_binding.hpp"
 #include "effects/effect_experiment.hpp"
@@ -84,6 +85,44 @@ class StrainCutoff final : public FitStage {
     return schedule;
   }
 
+  // The runs of one strip (the same TensileSetup: the repeats of a test, its tests at other
+  // speeds) and one schedule for all of them: the sample schedule of the run that goes
+  // furthest, with every other run's largest extension put in. Because the equilibrium does
+  // not depend on the path (above), the state at a run's largest extension is the same
+  // whichever run's schedule reached it; one continuation serves them all.
+  struct StripRuns {
+    TensileSetup setup;
+    std::vector<double> schedule;
+    std::vector<size_t> run_ends;  ///< per run: the step of its largest extension
+  };
+  static std::vector<StripRuns> strips_of(const FitContext& context, const std::vector<const RunData*>& runs) {
+    std::vector<StripRuns> strips;
+    std::vector<std::vector<std::vector<double>>> branches;  // per strip, its runs' loading rows
+    for (const RunData* d : runs) {
+      const TensileSetup setup = context.setup_for(*d->test, context.levels() - 1);
+      auto at = std::find_if(strips.begin(), strips.end(), [&](const StripRuns& s) { return s.setup == setup; });
+      if (at == strips.end()) {
+        strips.push_back({setup, {}, {}});
+        branches.emplace_back();
+        at = strips.end() - 1;
+      }
+      branches[static_cast<size_t>(at - strips.begin())].push_back(d->extension_mm);
+    }
+    for (size_t i = 0; i < strips.size(); ++i) {
+      const auto& b = branches[i];
+      const auto furthest = std::max_element(b.begin(), b.end(), [](const auto& x, const auto& y) { return x.back() < y.back(); });
+      std::vector<double> schedule = strain_sample_schedule(*furthest);
+      for (const auto& run : b) schedule.push_back(run.back());
+      std::sort(schedule.begin(), schedule.end());
+      schedule.erase(std::unique(schedule.begin(), schedule.end()), schedule.end());
+      for (const auto& run : b)
+        strips[i].run_ends.push_back(
+            static_cast<size_t>(std::lower_bound(schedule.begin(), schedule.end(), run.back()) - schedule.begin()));
+      strips[i].schedule = std::move(schedule);
+    }
+    return strips;
+  }
+
   // Where this stage's strips pass a cutoff set before (the bias strips and the warp/weft
   // cutoffs): there the stage was fitted to the law's quadratic extension (docs/fitting.md §7).
   static void note_other_cutoffs_passed(FitContext& context, const CurveStage& stage,
@@ -101,19 +140,23 @@ class StrainCutoff final : public FitStage {
 
   // The strain field over each of the stage's runs at its largest extension, at the finest
   // level (the model's law with the effects' law hooks applied, as every experiment of the fit
-  // sees it), pooled: each run's grid covers its strip evenly.
+  // sees it), pooled: each run's grid covers its strip evenly. One continuation per strip
+  // (strips_of): canvas bias with its 5 repeats, 5 continuations of 5 steps before, one of
+  // 9 now.
   static std::vector<Eigen::Vector3d> simulated_strains(const FitContext& context, const CurveStage& stage) {
     const MaterialParameters material = law_adjusted(context.params, context.registry());
     std::vector<Eigen::Vector3d> samples;
-    for (const RunData* d : context.runs_for(stage.angle_deg)) {
-      TensileExperiment e(context.setup_for(*d->test, context.levels() - 1), context.discretization(), material,
-                          context.solver());
-      Eigen::VectorXd last;
-      const TensileCurve c = e.run(strain_sample_schedule(d->extension_mm),
-                                   [&](int, const Eigen::VectorXd& q, const EquilibriumSolver&) { last = q; });
-      if (!c.completed || last.size() == 0) continue;
-      const std::vector<Eigen::Vector3d> run = e.material_strain_samples(last);
-      samples.insert(samples.end(), run.begin(), run.end());
+    for (const StripRuns& strip : strips_of(context, context.runs_for(stage.angle_deg))) {
+      TensileExperiment e(strip.setup, context.discretization(), material, context.solver());
+      std::vector<Eigen::VectorXd> states(strip.schedule.size());
+      e.run(strip.schedule, [&](int step, const Eigen::VectorXd& q, const EquilibriumSolver&) {
+        states[static_cast<size_t>(step)] = q;
+      });
+      for (size_t end : strip.run_ends) {
+        if (states[end].size() == 0) continue;  // the continuation stopped before this run's end
+        const std::vector<Eigen::Vector3d> run = e.material_strain_samples(states[end]);
+        samples.insert(samples.end(), run.begin(), run.end());
+      }
     }
     if (!(strain_excess(samples, stage.term->strain_component, {}).largest > 0))
       throw std::runtime_error("cutoffs: no converged " + stage.label + " simulation to measure strains on");

@@ -11,9 +11,13 @@
 #include <nlohmann/json.hpp>
 
 #include "core/dataset.hpp"
+#include "core/discretization_registry.hpp"
 #include "core/input_error.hpp"
 #include "core/params_io.hpp"
 #include "core/yaml_reader.hpp"
+#include "experiments/tensile_strip.hpp"
+#include "fitting/fit_config.hpp"
+#include "fitting/fit_context.hpp"
 #include "fitting/fit_protocol.hpp"
 #include "tests/support/program_registry.hpp"
 
@@ -337,6 +341,51 @@ TEST(FitProtocolAsData, StartFromEvaluatesGivenParametersWithoutFitting) {
   }
   const Options no_start = coarse_config({"protocol=[{name: final-curves}]"});
   EXPECT_THROW(run_fit(dataset, no_start, registry(), {}), InputError);
+}
+
+// The strain-cutoff stage simulates the runs of one strip in one continuation
+// (fitting/stages/strain_cutoff.cpp, strips_of): with every canvas bias repeat
+// (repeats.rule=all) the cutoff is 0.95 × the largest |Ẽ12| over the runs each simulated alone
+// along its own rows, as the stage did before; the strip's equilibrium does not depend on the
+// path, so the two agree to the solver's tolerance.
+TEST(FitProtocolAsData, StrainCutoffOfRepeatsInOneContinuationEqualsEachRunAlone) {
+  const Dataset dataset = read_dataset(std::string(TWILL_SOURCE_DIR) + "/examples/canvas");
+  const Options config = coarse_config(
+      {"repeats.rule=all",
+       "protocol=[{name: initial-guess}, {name: tensile-curve, label: warp, angle_deg: 90, term: eta1, fit: false},"
+       " {name: tensile-curve, label: bias, angle_deg: 45, term: eta4, fit: false}, {name: strain-cutoff, stage: bias}]"});
+  const FitReport report = run_fit(dataset, config, registry(), {});
+  ASSERT_TRUE(report.parameters.cutoffs.E12_max);
+  MaterialParameters measured_on = report.parameters;  // as the stage saw it: no cutoff yet
+  measured_on.cutoffs.E12_max.reset();
+
+  const FitConfig typed = read_fit_config(config);
+  const ComponentChoice discretization = typed.discretization;
+  const DiscretizationFactory factory = [&](const StripSpec& s, const MaterialParameters& p) {
+    return registry().create<DiscretizationFactories>(registry_category::kDiscretization, discretization, s, p);
+  };
+  double largest = 0;
+  int runs = 0;
+  for (const TensileTest& test : dataset.tensile) {
+    if (test.angle_deg != 45 || test.role != TestRole::Fit) continue;
+    for (const TensileRun& run : test.runs) {
+      const RunData d = measured_points(test, run, typed.data);
+      TensileSetup setup;
+      setup.angle_deg = 45;
+      setup.width_mm = test.width_mm;
+      setup.gauge_length_mm = test.gauge_length_mm;
+      setup.cells_across = typed.resolution.coarse_cells_across;  // one level
+      setup.cells_along = static_cast<int>(std::lround(setup.cells_across * test.gauge_length_mm / test.width_mm));
+      TensileExperiment alone(setup, factory, measured_on);
+      Eigen::VectorXd top;
+      ASSERT_TRUE(alone.run(d.extension_mm, [&](int, const Eigen::VectorXd& q, const EquilibriumSolver&) { top = q; })
+                      .completed);
+      for (const Eigen::Vector3d& e : alone.material_strain_samples(top)) largest = std::max(largest, std::abs(e[2]));
+      ++runs;
+    }
+  }
+  EXPECT_EQ(runs, 5);
+  EXPECT_NEAR(*report.parameters.cutoffs.E12_max, 0.95 * largest, 1e-6 * largest);
 }
 
 // The validation stage states where its strips leave the fitted strain box (paper §3.2): the
