@@ -36,6 +36,8 @@ struct DiscoverOptions {
   double alpha = 0.05;                  ///< family-wise level of the score tests (Bonferroni)
   double min_excess_shrink = 3;         ///< (before − floor) / (after − floor) a named effect reaches
   double unexplained_ratio = 2;         ///< a test whose baseline error exceeds this × its floor is a misfit
+                                        ///< (`unexplained` with nothing named; a candidate without a
+                                        ///< score test needs one)
   bool held_out = true;                 ///< confirm on held-out specimens (two folds) before naming
   /// The resolution level candidates and held-out folds are fitted at (capped at the baseline's
   /// finest); named effects are refitted at the baseline's finest level.

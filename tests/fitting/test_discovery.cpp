@@ -178,6 +178,38 @@ TEST(DiscoverJudge, ARicherCurveThatExplainsTheMisfitTooIsTiedWithTheEffect) {
   EXPECT_EQ(judged({fitted("hysteresis", 1e-4, 0.08, 0.012), curve}).named, std::vector<std::string>{"hysteresis"});
 }
 
+// A candidate without a calibrated test passes on the shrink of the excess alone, so it needs a
+// real misfit to shrink (a test above unexplained_ratio × its floor). The null twins of
+// papers/discovery at 8×12 (no effect, 10 % scatter, 1° offsets): seed 2's misalignment
+// 1.25 → 1.20 % and seed 4's curve-degree 1.37 → 0.73 % against floors of 1.19 and 1.29 %.
+TEST(DiscoverJudge, ACandidateWithoutAScoreTestNeedsARealMisfit) {
+  const double none = std::numeric_limits<double>::quiet_NaN();
+  const DiscoverResult offsets = judged({fitted("misalignment", none, 0.0125, 0.0120, 0.0119)});
+  EXPECT_EQ(offsets.candidates[0].status, "rejected");
+  EXPECT_EQ(offsets.verdict, "none");
+  EXPECT_NE(offsets.candidates[0].reason.find("largest 1.05×"), std::string::npos) << offsets.candidates[0].reason;
+  const DiscoverResult curve = judged({fitted(kCurveDegreeCandidate, none, 0.0137, 0.0073, 0.0129)});
+  EXPECT_EQ(curve.candidates[0].status, "rejected");
+  EXPECT_TRUE(curve.named.empty());
+  // The same shrink from a real misfit (2.5× the floor) still passes.
+  EXPECT_EQ(judged({fitted("misalignment", none, 0.025, 0.0120, 0.01)}).candidates[0].status, "tied");
+  EXPECT_EQ(judged({fitted(kCurveDegreeCandidate, none, 0.025, 0.0105, 0.01)}).named,
+            std::vector<std::string>{kCurveDegreeCandidate});
+  // A test above 2× its floor that the richer curve brings within it is the curves' shape, no
+  // misfit for the offsets to explain (seed 2's weft-300: 1.53 % against 0.66 %, 2.3×).
+  DiscoverCandidate offsets_on_shape = fitted("misalignment", none, 0.0153, 0.0068, 0.0066);
+  DiscoverCandidate curve_on_shape = fitted(kCurveDegreeCandidate, none, 0.0153, 0.0125, 0.0066);
+  curve_on_shape.effect->tests[0].error_with = 0.009;  // warp: 1.4× with the richer curve
+  curve_on_shape.effect->tests[1].error_with = 0.016;  // weft: still 2.4×
+  EXPECT_EQ(judged({offsets_on_shape, curve_on_shape}).candidates[0].status, "tied");
+  curve_on_shape.effect->tests[1].error_with = 0.009;
+  const DiscoverResult shape = judged({offsets_on_shape, curve_on_shape});
+  EXPECT_EQ(shape.candidates[0].status, "rejected");
+  EXPECT_NE(shape.candidates[0].reason.find("the curves' shape: warp (2.3×, 1.4× with the richer curve)"),
+            std::string::npos)
+      << shape.candidates[0].reason;
+}
+
 // The null twin of rates.py seed 1 at 8×12 (2026-12-04): nothing named, warp 0.91 % against a
 // floor of 0.38 % with the protocol's curves, 0.58 % overall with each curve one degree higher.
 TEST(DiscoverJudge, AMisfitTheRicherCurveRemovesIsTheCurvesShapeNotUnexplained) {
