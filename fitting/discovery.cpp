@@ -155,6 +155,13 @@ bool real_misfit(const FitEffect& e, const std::map<std::string, double>& floors
   return false;
 }
 
+// Why the excess did not shrink `factor`-fold: there was none (the baseline within its floor),
+// or it shrank less.
+std::string why_no_shrink(const FitEffect& e, double floor, double factor) {
+  return e.error_without <= floor ? "the baseline is within the floor: no excess to shrink"
+                                  : fmt::format("the excess over the floor shrank less than {:g}-fold", factor);
+}
+
 // One candidate's status from its own effect-fit record (`threshold`: α / candidates tested).
 //
 // A candidate without a calibrated test (curve-degree, misalignment) has only the shrink of the
@@ -182,8 +189,7 @@ void judge_one(const DiscoverOptions& options, double threshold, const std::map<
     // strain), which it cannot fit where the misfit is physics.
     c->status = shrinks ? kNamed : kRejected;
     c->reason = gain + (shrinks ? "; a richer elastic curve explains the misfit"
-                                : fmt::format(": the excess over the floor shrank less than {:g}-fold",
-                                              options.min_excess_shrink));
+                                : ": " + why_no_shrink(e, floor, options.min_excess_shrink));
     return;
   }
   if (!std::isfinite(e.score)) {
@@ -192,8 +198,7 @@ void judge_one(const DiscoverOptions& options, double threshold, const std::map<
     c->status = shrinks ? kTied : kRejected;
     c->reason = shrinks ? gain + "; no score test for its per-run values, which trade with the specimen scales (needs: " +
                               needs_to_separate(c->name, "specimen scale") + ")"
-                        : gain + "; no score test, and the excess over the floor did not shrink " +
-                              fmt::format("{:g}-fold", options.min_excess_shrink);
+                        : gain + "; no score test, and " + why_no_shrink(e, floor, options.min_excess_shrink);
     return;
   }
   if (!(e.score_p_value < threshold)) {
@@ -204,8 +209,7 @@ void judge_one(const DiscoverOptions& options, double threshold, const std::map<
   }
   c->status = shrinks ? kNamed : kRejected;
   c->reason = fmt::format("calibrated p {:.2g} {} α/n = {:.2g}; {}{}", e.score_p_value, "<", threshold, gain,
-                          shrinks ? "" : fmt::format(": the excess over the floor shrank less than {:g}-fold",
-                                                     options.min_excess_shrink));
+                          shrinks ? "" : ": " + why_no_shrink(e, floor, options.min_excess_shrink));
   if (!shrinks) return;
   const DiscoverHeldOut& h = c->held_out;
   if (h.evaluated) {

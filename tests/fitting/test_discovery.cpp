@@ -45,8 +45,12 @@ TEST(DiscoverJudge, RejectsWhatIsNotSignificantOrDoesNotShrinkEnough) {
   EXPECT_EQ(judged({fitted("hysteresis", 1e-3, 0.03, 0.02)}).candidates[0].status, "rejected");
   // A large gain that the calibrated test does not back (p 0.2).
   EXPECT_EQ(judged({fitted("hysteresis", 0.2, 0.08, 0.012)}).verdict, "none");
-  // No excess at all: the baseline is at the floor.
-  EXPECT_EQ(judged({fitted("hysteresis", 1e-3, 0.01, 0.009)}).candidates[0].status, "rejected");
+  // No excess at all: the baseline is at the floor, and the reason says so.
+  const DiscoverResult at_floor = judged({fitted("hysteresis", 1e-3, 0.01, 0.009)});
+  EXPECT_EQ(at_floor.candidates[0].status, "rejected");
+  EXPECT_NE(at_floor.candidates[0].reason.find("the baseline is within the floor: no excess to shrink"),
+            std::string::npos)
+      << at_floor.candidates[0].reason;
 }
 
 TEST(DiscoverJudge, NamesOnlyWhatHoldsOnHeldOutSpecimens) {
