@@ -215,7 +215,7 @@ class ProblemTnlp : public Ipopt::TNLP {
   /// in x (Euclidean), as BFGS's first step (bfgs.hpp): σ = max(1, s·‖∇f(x0)‖₂) with s the
   /// objective scale Ipopt's gradient-based scaling applies (1 without scaling). Ipopt's own
   /// B0 = I took a step of length 100 on the poplin bias (|∇f| 632, scaled to 100): its line
-  /// search accepted 3 % of it, a jump of 3 in log G12, into a basin at 62.9 % error where it
+  /// search accepted 3 % of it, a jump of 3 in x (x = k/|k0|), into a basin at 62.9 % error where it
   /// converged (GN, BFGS and NLopt: 0.68 %). 1 when ∇f(x0) cannot be evaluated.
   double first_step_init_val(bool gradient_scaling) {
     return guard([&] {
