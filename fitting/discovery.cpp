@@ -129,11 +129,19 @@ double error_with_on(const FitEffect& e, const std::string& test) {
   return std::numeric_limits<double>::quiet_NaN();
 }
 
-// Whether some test of the candidate's is a real misfit before it: its error without the
-// candidate above `ratio` times its floor, the misfit `unexplained` is declared on
-// (unexplained_ratio), and — for any candidate but the richer curve itself — not one the richer
-// curve (`richer`: curve-degree's record, when fitted) brings within that ratio, which is the
-// curves' shape (unexplained_misfit). `words` says why there is none.
+// A test's baseline error against its floor: within `ratio` times it (no misfit), above it but
+// brought within it by the richer curve (`richer`: curve-degree's error on the test, NaN when
+// not fitted) — the protocol's curve shape, whose degree search stops at its target error, not
+// at the noise — or a real misfit. One rule for `unexplained` and for candidates without a
+// score test.
+enum class Misfit { None, CurvesShape, Real };
+Misfit misfit_of(double before, double floor, double richer, double ratio) {
+  if (!(before > ratio * floor)) return Misfit::None;
+  return richer <= ratio * floor ? Misfit::CurvesShape : Misfit::Real;
+}
+
+// Whether some test of the candidate's is a real misfit before it (misfit_of; the richer curve
+// does not discount its own tests). `words` says why there is none.
 bool real_misfit(const FitEffect& e, const std::map<std::string, double>& floors, double ratio,
                  const FitEffect* richer, std::string* words) {
   double largest = 0;
@@ -143,11 +151,12 @@ bool real_misfit(const FitEffect& e, const std::map<std::string, double>& floors
     if (found == floors.end() || !(found->second > 0)) continue;
     const double floor = found->second;
     largest = std::max(largest, t.error_without / floor);
-    if (t.error_without <= ratio * floor) continue;
     const double curve = richer && richer != &e ? error_with_on(*richer, t.test) : std::numeric_limits<double>::quiet_NaN();
-    if (!(curve <= ratio * floor)) return true;
-    shape += fmt::format("{}{} ({:.1f}×, {:.1f}× with the richer curve)", shape.empty() ? "" : ", ", t.test,
-                         t.error_without / floor, curve / floor);
+    const Misfit m = misfit_of(t.error_without, floor, curve, ratio);
+    if (m == Misfit::Real) return true;
+    if (m == Misfit::CurvesShape)
+      shape += fmt::format("{}{} ({:.1f}×, {:.1f}× with the richer curve)", shape.empty() ? "" : ", ", t.test,
+                           t.error_without / floor, curve / floor);
   }
   *words = shape.empty() ? fmt::format("no test's error is above {:g}× its floor (largest {:.2f}×): no misfit to explain",
                                        ratio, largest)
@@ -596,11 +605,11 @@ double richer_curve_error(const DiscoverResult& result, const std::string& test)
 std::string unexplained_misfit(const DiscoverResult& result, double ratio, std::string* note) {
   const DiscoverGap* worst = nullptr;
   for (const DiscoverGap& g : result.gap) {
-    if (!std::isfinite(g.floor) || g.before <= ratio * g.floor) continue;
-    // A misfit the richer curve removes is the protocol's curve shape (its degree search stops
-    // at its target error, not at the noise), which the curve-degree candidate stands for.
+    if (!std::isfinite(g.floor)) continue;
     const double richer = richer_curve_error(result, g.test);
-    if (std::isfinite(richer) && richer <= ratio * g.floor) {
+    const Misfit m = misfit_of(g.before, g.floor, richer, ratio);
+    if (m == Misfit::None) continue;
+    if (m == Misfit::CurvesShape) {
       if (note)
         *note += fmt::format("{}{} is {:.1f}× its floor with the protocol's curves and {:.1f}× with each curve one "
                              "degree higher (curve-degree): the curves' shape, not a missing effect",

@@ -218,18 +218,16 @@ class ProblemTnlp : public Ipopt::TNLP {
   /// search accepted 3 % of it, a jump of 3 in x (x = k/|k0|), into a basin at 62.9 % error where it
   /// converged (GN, BFGS and NLopt: 0.68 %). 1 when ∇f(x0) cannot be evaluated.
   double first_step_init_val(bool gradient_scaling) {
-    return guard([&] {
-             const Evaluation* e = evaluation_at(static_cast<Index>(x0_.size()), x0_.data());
-             if (!e) return false;
-             const double inf_norm = e->gradient.lpNorm<Eigen::Infinity>();
-             const double scale = gradient_scaling && inf_norm > kScalingMaxGradient
-                                      ? kScalingMaxGradient / inf_norm
-                                      : 1.0;
-             first_step_init_val_ = std::max(1.0, scale * e->gradient.norm());
-             return true;
-           })
-               ? first_step_init_val_
-               : 1.0;
+    double value = 1.0;
+    guard([&] {
+      const Evaluation* e = evaluation_at(static_cast<Index>(x0_.size()), x0_.data());
+      if (!e) return false;
+      const double inf_norm = e->gradient.lpNorm<Eigen::Infinity>();
+      const double scale = gradient_scaling && inf_norm > kScalingMaxGradient ? kScalingMaxGradient / inf_norm : 1.0;
+      value = std::max(1.0, scale * e->gradient.norm());
+      return true;
+    });
+    return value;
   }
 
   const std::string& error() const { return error_; }
@@ -290,7 +288,6 @@ class ProblemTnlp : public Ipopt::TNLP {
   double final_value_ = std::numeric_limits<double>::quiet_NaN();
   std::optional<Stop> stop_;
   std::string error_;
-  double first_step_init_val_ = 1.0;
 };
 
 }  // namespace

@@ -86,39 +86,31 @@ class StrainCutoff final : public FitStage {
   }
 
   // The runs of one strip (the same TensileSetup: the repeats of a test, its tests at other
-  // speeds) and one schedule for all of them: the sample schedule of the run that goes
-  // furthest, with every other run's largest extension put in. Because the equilibrium does
-  // not depend on the path (above), the state at a run's largest extension is the same
-  // whichever run's schedule reached it; one continuation serves them all.
+  // speeds), simulated by one continuation: the sample schedule of the run that goes furthest,
+  // with every other run's largest extension put in. Because the equilibrium does not depend on
+  // the path (above), the state at a run's largest extension is the same whichever run's
+  // schedule reached it.
   struct StripRuns {
     TensileSetup setup;
-    std::vector<double> schedule;
-    std::vector<size_t> run_ends;  ///< per run: the step of its largest extension
+    const std::vector<double>* furthest = nullptr;  ///< the rows of the run that goes furthest
+    std::vector<double> ends;                       ///< each run's largest extension (its last row)
+
+    std::vector<double> schedule() const {
+      std::vector<double> s = strain_sample_schedule(*furthest);
+      s.insert(s.end(), ends.begin(), ends.end());
+      std::sort(s.begin(), s.end());
+      s.erase(std::unique(s.begin(), s.end()), s.end());
+      return s;
+    }
   };
   static std::vector<StripRuns> strips_of(const FitContext& context, const std::vector<const RunData*>& runs) {
     std::vector<StripRuns> strips;
-    std::vector<std::vector<std::vector<double>>> branches;  // per strip, its runs' loading rows
     for (const RunData* d : runs) {
       const TensileSetup setup = context.setup_for(*d->test, context.levels() - 1);
       auto at = std::find_if(strips.begin(), strips.end(), [&](const StripRuns& s) { return s.setup == setup; });
-      if (at == strips.end()) {
-        strips.push_back({setup, {}, {}});
-        branches.emplace_back();
-        at = strips.end() - 1;
-      }
-      branches[static_cast<size_t>(at - strips.begin())].push_back(d->extension_mm);
-    }
-    for (size_t i = 0; i < strips.size(); ++i) {
-      const auto& b = branches[i];
-      const auto furthest = std::max_element(b.begin(), b.end(), [](const auto& x, const auto& y) { return x.back() < y.back(); });
-      std::vector<double> schedule = strain_sample_schedule(*furthest);
-      for (const auto& run : b) schedule.push_back(run.back());
-      std::sort(schedule.begin(), schedule.end());
-      schedule.erase(std::unique(schedule.begin(), schedule.end()), schedule.end());
-      for (const auto& run : b)
-        strips[i].run_ends.push_back(
-            static_cast<size_t>(std::lower_bound(schedule.begin(), schedule.end(), run.back()) - schedule.begin()));
-      strips[i].schedule = std::move(schedule);
+      if (at == strips.end()) at = strips.insert(strips.end(), StripRuns{setup, nullptr, {}});
+      at->ends.push_back(d->extension_mm.back());
+      if (!at->furthest || d->extension_mm.back() > at->furthest->back()) at->furthest = &d->extension_mm;
     }
     return strips;
   }
@@ -148,13 +140,15 @@ class StrainCutoff final : public FitStage {
     std::vector<Eigen::Vector3d> samples;
     for (const StripRuns& strip : strips_of(context, context.runs_for(stage.angle_deg))) {
       TensileExperiment e(strip.setup, context.discretization(), material, context.solver());
-      std::vector<Eigen::VectorXd> states(strip.schedule.size());
-      e.run(strip.schedule, [&](int step, const Eigen::VectorXd& q, const EquilibriumSolver&) {
+      const std::vector<double> schedule = strip.schedule();
+      std::vector<Eigen::VectorXd> states(schedule.size());
+      e.run(schedule, [&](int step, const Eigen::VectorXd& q, const EquilibriumSolver&) {
         states[static_cast<size_t>(step)] = q;
       });
-      for (size_t end : strip.run_ends) {
-        if (states[end].size() == 0) continue;  // the continuation stopped before this run's end
-        const std::vector<Eigen::Vector3d> run = e.material_strain_samples(states[end]);
+      for (double end : strip.ends) {
+        const auto step = static_cast<size_t>(std::lower_bound(schedule.begin(), schedule.end(), end) - schedule.begin());
+        if (states[step].size() == 0) continue;  // the continuation stopped before this run's end
+        const std::vector<Eigen::Vector3d> run = e.material_strain_samples(states[step]);
         samples.insert(samples.end(), run.begin(), run.end());
       }
     }
