@@ -14,6 +14,7 @@
 #include <fstream>
 #include <map>
 #include <optional>
+#include <set>
 #include <thread>
 #include <nlohmann/json.hpp>
 
@@ -225,6 +226,7 @@ class Scheduler {
                           summary_.already_done, summary_.skipped_failed,
                           summary_.skipped_failed && !options_.retry_failed ? " (skipped; --retry-failed re-runs them)" : "",
                           pending_.size(), options_.jobs * ranks, ranks > 1 ? fmt::format(" on {} ranks", ranks) : ""));
+    answer_first_requests();
     while (!finished()) {
       while (next_ < pending_.size() && children_.size() < static_cast<size_t>(options_.jobs))
         children_.start(dispatch(0));
@@ -272,6 +274,21 @@ class Scheduler {
       db_.replace_metrics(run.hash, command->metrics(command->result(options_.out / "runs" / run.hash)));
     } catch (const std::exception& e) {
       throw std::runtime_error(std::string("--refresh-metrics: ") + e.what());
+    }
+  }
+  // Under MPI, each worker's first request is answered before rank 0 starts runs of its own,
+  // so that the workers get runs by the order of the study, not by the race between their
+  // start-up and rank 0's first fits (a short study could otherwise all run on rank 0).
+  void answer_first_requests() {
+    if (!mpi_) return;
+    std::set<int> asked;
+    while (asked.size() < static_cast<size_t>(mpi_->size() - 1)) {
+      if (auto message = mpi_->poll()) {
+        if (message->tag == kRequest) asked.insert(message->source);
+        handle(*message);
+      } else {
+        std::this_thread::sleep_for(kIdlePoll);
+      }
     }
   }
   bool finished() const {
