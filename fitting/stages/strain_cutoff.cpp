@@ -95,14 +95,29 @@ class StrainCutoff final : public FitStage {
     const std::vector<double>* furthest = nullptr;  ///< the rows of the run that goes furthest
     std::vector<double> ends;                       ///< each run's largest extension (its last row)
 
-    std::vector<double> schedule() const {
-      std::vector<double> s = strain_sample_schedule(*furthest);
+    /// refinement 0: the sample schedule of the furthest run's rows; refinement r > 0:
+    /// kStrainSampleSteps·2^r evenly spaced extensions up to its end (the retries below).
+    std::vector<double> schedule(int refinement = 0) const {
+      std::vector<double> s = refinement == 0 ? strain_sample_schedule(*furthest) : evenly_spaced(refinement);
       s.insert(s.end(), ends.begin(), ends.end());
       std::sort(s.begin(), s.end());
       s.erase(std::unique(s.begin(), s.end()), s.end());
       return s;
     }
+    std::vector<double> evenly_spaced(int refinement) const {
+      const size_t n = kStrainSampleSteps << refinement;
+      std::vector<double> s;
+      for (size_t j = 1; j <= n; ++j) s.push_back(furthest->back() * static_cast<double>(j) / static_cast<double>(n));
+      return s;
+    }
   };
+  // A continuation of kStrainSampleSteps steps can stop where smaller steps get through: a
+  // curve raised to degree 4 whose exponential terms nearly cancel (canvas warp with
+  // Gauss–Newton, papers/optimizers: Newton's fallbacks exhausted at 7 mm in 5 or 8 steps and
+  // at 9 mm in 12, through to 9 mm in 36) — while the fit itself, warm-started from its last
+  // evaluation, converged there. Then the strip is loaded again with twice the steps, up to
+  // kStrainSampleRefinements times (40 steps).
+  static constexpr int kStrainSampleRefinements = 3;
   static std::vector<StripRuns> strips_of(const FitContext& context, const std::vector<const RunData*>& runs) {
     std::vector<StripRuns> strips;
     for (const RunData* d : runs) {
@@ -135,16 +150,24 @@ class StrainCutoff final : public FitStage {
   // sees it), pooled: each run's grid covers its strip evenly. One continuation per strip
   // (strips_of): canvas bias with its 5 repeats, 5 continuations of 5 steps before, one of
   // 9 now.
-  static std::vector<Eigen::Vector3d> simulated_strains(const FitContext& context, const CurveStage& stage) {
+  static std::vector<Eigen::Vector3d> simulated_strains(FitContext& context, const CurveStage& stage) {
     const MaterialParameters material = law_adjusted(context.params, context.registry());
     std::vector<Eigen::Vector3d> samples;
     for (const StripRuns& strip : strips_of(context, context.runs_for(stage.angle_deg))) {
       TensileExperiment e(strip.setup, context.discretization(), material, context.solver());
-      const std::vector<double> schedule = strip.schedule();
-      std::vector<Eigen::VectorXd> states(schedule.size());
-      e.run(schedule, [&](int step, const Eigen::VectorXd& q, const EquilibriumSolver&) {
-        states[static_cast<size_t>(step)] = q;
-      });
+      std::vector<double> schedule;
+      std::vector<Eigen::VectorXd> states;
+      for (int refinement = 0; refinement <= kStrainSampleRefinements; ++refinement) {
+        schedule = strip.schedule(refinement);
+        states.assign(schedule.size(), Eigen::VectorXd());
+        const TensileCurve curve = e.run(schedule, [&](int step, const Eigen::VectorXd& q, const EquilibriumSolver&) {
+          states[static_cast<size_t>(step)] = q;
+        });
+        if (curve.completed) break;
+        if (refinement < kStrainSampleRefinements)
+          context.note(fmt::format("cutoff of {}: the strip's continuation stopped ({}); again in {} steps",
+                                   stage.label, curve.message, kStrainSampleSteps << (refinement + 1)));
+      }
       for (double end : strip.ends) {
         const auto step = static_cast<size_t>(std::lower_bound(schedule.begin(), schedule.end(), end) - schedule.begin());
         if (states[step].size() == 0) continue;  // the continuation stopped before this run's end

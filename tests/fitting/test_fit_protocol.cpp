@@ -388,6 +388,59 @@ TEST(FitProtocolAsData, StrainCutoffOfRepeatsInOneContinuationEqualsEachRunAlone
   EXPECT_NEAR(*report.parameters.cutoffs.E12_max, 0.95 * largest, 1e-6 * largest);
 }
 
+// A strip the strain-cutoff stage's short continuation cannot finish is loaded again with
+// more steps (fitting/stages/strain_cutoff.cpp): the warp curve Gauss–Newton fitted at degree 4
+// in papers/optimizers (two exponential terms nearly cancelling) fails Newton at 4x6 in 5
+// steps to 9 mm and passes in 10; the stage failed the fit with "no converged warp simulation"
+// before. The cutoff is then the one measured on a 40-step continuation.
+TEST(FitProtocolAsData, StrainCutoffRetriesAStripItsShortContinuationCannotFinish) {
+  const Dataset dataset = read_dataset(std::string(TWILL_SOURCE_DIR) + "/examples/canvas");
+  const std::string material = R"(model: clyde2017
+density_kg_m2: 0.294
+thickness_m: 0.00053
+a11_Pa: 24758350.81846565
+a12_Pa: 9460587.434412947
+a22_Pa: 18921174.868825894
+G12_Pa: 590298.7331501975
+eta1: {mu: [-3.4422290783793823, 0.053673513947320076, 0.6934120056720127, 3.695143558760049], alpha: [169.08518007448862, 21.38932728473475, 22.12319977925855, 167.4844696915425]}
+eta3: {mu: [1], alpha: [2]}
+eta4: {mu: [1], alpha: [47.78931430893349]}
+cutoffs: {E11_min: 0, E11_max: null, E22_min: 0, E22_max: null, E12_max: null}
+)";
+  const std::filesystem::path params = std::filesystem::temp_directory_path() / "twill-cutoff-retry-params.yaml";
+  std::ofstream(params) << material;
+  const Options config = coarse_config(
+      {"data.max_points=40", "protocol=[{name: start-from, params: " + params.string() +
+                                  "}, {name: tensile-curve, label: warp, angle_deg: 90, term: eta1, fit: false},"
+                                  " {name: strain-cutoff, stage: warp}]"});
+  const FitReport report = run_fit(dataset, config, registry(), {});
+  MaterialParameters measured_on = read_params_file(params.string());
+  std::filesystem::remove(params);
+  ASSERT_TRUE(report.parameters.cutoffs.E11_max);
+  EXPECT_TRUE(std::any_of(report.notes.begin(), report.notes.end(), [](const std::string& n) {
+    return n.find("cutoff of warp: the strip's continuation stopped") != std::string::npos;
+  }));
+
+  const FitConfig typed = read_fit_config(config);
+  const DiscretizationFactory factory = [&](const StripSpec& s, const MaterialParameters& p) {
+    return registry().create<DiscretizationFactories>(registry_category::kDiscretization, typed.discretization, s, p);
+  };
+  TensileSetup setup;
+  setup.angle_deg = 90;
+  setup.width_mm = 50;
+  setup.gauge_length_mm = 75;
+  setup.cells_across = 4;
+  setup.cells_along = 6;
+  TensileExperiment strip(setup, factory, measured_on);
+  std::vector<double> forty;
+  for (int j = 1; j <= 40; ++j) forty.push_back(9.0 * j / 40);
+  Eigen::VectorXd top;
+  ASSERT_TRUE(strip.run(forty, [&](int, const Eigen::VectorXd& q, const EquilibriumSolver&) { top = q; }).completed);
+  double largest = 0;
+  for (const Eigen::Vector3d& e : strip.material_strain_samples(top)) largest = std::max(largest, std::abs(e[0]));
+  EXPECT_NEAR(*report.parameters.cutoffs.E11_max, 0.95 * largest, 1e-6 * largest);
+}
+
 // The validation stage states where its strips leave the fitted strain box (paper §3.2): the
 // largest strain over each nominal strip, the cutoffs, and a note for every cutoff passed
 // (docs/fitting.md "Validation beyond the cutoffs": poplin's 67.5° strips).
