@@ -2,12 +2,15 @@
 """Time `twill fit` of one dataset with several binaries back to back (the fit benchmark).
 
 Usage: bench_fit.py DATASET OUTDIR BINARY [BINARY ...] [--repeat N] [--set KEY=VALUE ...]
+                    [--variant-set KEY=VALUE ...]
 
 Runs `BINARY fit DATASET -o OUTDIR/<i>-<name> --quiet` for each binary in turn (N rounds,
 alternating, so that a change of the machine's load hits every binary alike), with one BLAS
 and OpenMP thread as bootstrap.sh does, and prints per binary: wall time, CPU time and peak
 memory of the process (from wait4), the load average before the run, and the fit's own
-per-stage timings (report.json `timing_s`). Machines here are shared: compare binaries of
+per-stage timings (report.json `timing_s`). With --variant-set, each binary also runs with
+those overrides added (e.g. `--variant-set 'effects=[hysteresis]'`: the cost of an effect on
+a fit, with and without it back to back). Machines here are shared: compare binaries of
 one run, not figures of different days. Binaries that predate a stage's timing key show '-'.
 """
 import argparse
@@ -53,32 +56,39 @@ def main():
     parser.add_argument("binaries", nargs="+")
     parser.add_argument("--repeat", type=int, default=1)
     parser.add_argument("--set", action="append", default=[], dest="sets")
+    parser.add_argument("--variant-set", action="append", default=[], dest="variant_sets")
     args = parser.parse_args()
     for b in args.binaries:
         if not (os.path.isfile(b) and os.access(b, os.X_OK)):
             raise SystemExit(f"{b}: not an executable file")
     os.makedirs(args.outdir, exist_ok=True)
-    results = {b: [] for b in args.binaries}
+    # A variant: (binary, its extra overrides, its column).
+    variants = []
+    for i, b in enumerate(args.binaries):
+        variants.append((b, [], f"{i}: {os.path.basename(b)}"))
+        if args.variant_sets:
+            variants.append((b, args.variant_sets, f"{i}: {os.path.basename(b)} + {' '.join(args.variant_sets)}"))
+    results = [[] for _ in variants]
     for round_index in range(args.repeat):
-        for i, b in enumerate(args.binaries):
-            r = run_once(b, args.dataset, os.path.join(args.outdir, f"{i}-{os.path.basename(b)}"), args.sets)
-            results[b].append(r)
-            print(f"round {round_index + 1}: {b}: {r['wall_s']:.1f} s wall (load {r['load']:.2f})", file=sys.stderr)
-    columns = [f"{i}: {os.path.basename(b)}" for i, b in enumerate(args.binaries)]
-    best = {b: min(results[b], key=lambda r: r["wall_s"]) for b in args.binaries}
+        for v, (b, extra, column) in enumerate(variants):
+            r = run_once(b, args.dataset, os.path.join(args.outdir, f"{v}-{os.path.basename(b)}"), args.sets + extra)
+            results[v].append(r)
+            print(f"round {round_index + 1}: {column}: {r['wall_s']:.1f} s wall (load {r['load']:.2f})", file=sys.stderr)
+    columns = [column for _, _, column in variants]
+    best = [min(rs, key=lambda r: r["wall_s"]) for rs in results]
     print("| | " + " | ".join(columns) + " |")
     print("|---|" + "---|" * len(columns))
     for key, fmt in [("wall_s", "{:.1f} s"), ("cpu_s", "{:.1f} s"), ("peak_mb", "{:.0f} MB"), ("load", "{:.2f}")]:
         label = {"wall_s": "wall (best of rounds)", "cpu_s": "CPU (user + sys)", "peak_mb": "peak RSS",
                  "load": "load average before"}[key]
-        print(f"| {label} | " + " | ".join(fmt.format(best[b][key]) for b in args.binaries) + " |")
+        print(f"| {label} | " + " | ".join(fmt.format(b[key]) for b in best) + " |")
     stages = []
-    for b in args.binaries:
-        for k in best[b]["stages"]:
+    for b in best:
+        for k in b["stages"]:
             if k not in stages and k != "total":
                 stages.append(k)
     for k in stages + ["total"]:
-        cells = [f"{best[b]['stages'][k]:.1f}" if k in best[b]["stages"] else "-" for b in args.binaries]
+        cells = [f"{b['stages'][k]:.1f}" if k in b["stages"] else "-" for b in best]
         print(f"| {k} | " + " | ".join(cells) + " |")
 
 
