@@ -153,31 +153,49 @@ class StrainCutoff final : public FitStage {
   static std::vector<Eigen::Vector3d> simulated_strains(FitContext& context, const CurveStage& stage) {
     const MaterialParameters material = law_adjusted(context.params, context.registry());
     std::vector<Eigen::Vector3d> samples;
+    std::string stopped;  // why the last strip that did not reach every run's end stopped
     for (const StripRuns& strip : strips_of(context, context.runs_for(stage.angle_deg))) {
       TensileExperiment e(strip.setup, context.discretization(), material, context.solver());
-      std::vector<double> schedule;
-      std::vector<Eigen::VectorXd> states;
-      for (int refinement = 0; refinement <= kStrainSampleRefinements; ++refinement) {
-        schedule = strip.schedule(refinement);
-        states.assign(schedule.size(), Eigen::VectorXd());
-        const TensileCurve curve = e.run(schedule, [&](int step, const Eigen::VectorXd& q, const EquilibriumSolver&) {
-          states[static_cast<size_t>(step)] = q;
-        });
-        if (curve.completed) break;
-        if (refinement < kStrainSampleRefinements)
-          context.note(fmt::format("cutoff of {}: the strip's continuation stopped ({}); again in {} steps",
-                                   stage.label, curve.message, kStrainSampleSteps << (refinement + 1)));
-      }
+      const LoadedStrip loaded = load(context, stage, strip, e);
+      if (!loaded.stopped.empty()) stopped = loaded.stopped;
       for (double end : strip.ends) {
-        const auto step = static_cast<size_t>(std::lower_bound(schedule.begin(), schedule.end(), end) - schedule.begin());
-        if (states[step].size() == 0) continue;  // the continuation stopped before this run's end
-        const std::vector<Eigen::Vector3d> run = e.material_strain_samples(states[step]);
+        const auto step = static_cast<size_t>(std::lower_bound(loaded.schedule.begin(), loaded.schedule.end(), end) -
+                                              loaded.schedule.begin());
+        if (loaded.states[step].size() == 0) continue;  // the continuation stopped before this run's end
+        const std::vector<Eigen::Vector3d> run = e.material_strain_samples(loaded.states[step]);
         samples.insert(samples.end(), run.begin(), run.end());
       }
     }
     if (!(strain_excess(samples, stage.term->strain_component, {}).largest > 0))
-      throw std::runtime_error("cutoffs: no converged " + stage.label + " simulation to measure strains on");
+      throw std::runtime_error("cutoffs: no converged " + stage.label + " simulation to measure strains on (" +
+                               stopped + ")");
     return samples;
+  }
+
+  // A strip loaded along its sample schedule, and again with more steps while it stops short.
+  struct LoadedStrip {
+    std::vector<double> schedule;
+    std::vector<Eigen::VectorXd> states;  ///< per schedule entry; empty where not reached
+    std::string stopped;                  ///< why the last attempt stopped; empty when it completed
+  };
+  static LoadedStrip load(FitContext& context, const CurveStage& stage, const StripRuns& strip, TensileExperiment& e) {
+    LoadedStrip loaded;
+    for (int refinement = 0; refinement <= kStrainSampleRefinements; ++refinement) {
+      loaded.schedule = strip.schedule(refinement);
+      loaded.states.assign(loaded.schedule.size(), Eigen::VectorXd());
+      const TensileCurve curve = e.run(loaded.schedule, [&](int step, const Eigen::VectorXd& q, const EquilibriumSolver&) {
+        loaded.states[static_cast<size_t>(step)] = q;
+      });
+      loaded.stopped = curve.completed ? "" : curve.message;
+      if (curve.completed) break;
+      context.note(refinement < kStrainSampleRefinements
+                       ? fmt::format("cutoff of {}: the strip's continuation stopped ({}); again in {} steps", stage.label,
+                                     curve.message, kStrainSampleSteps << (refinement + 1))
+                       : fmt::format("cutoff of {}: the strip's continuation stopped in {} steps too ({}); the runs "
+                                     "it did not reach are left out of the cutoff",
+                                     stage.label, loaded.schedule.size(), curve.message));
+    }
+    return loaded;
   }
 
   StrainCutoffOptions options_;
