@@ -165,6 +165,15 @@ void check_fit_protocol(const Dataset& dataset, const Options& config, const Reg
   check_stages(make_stages(typed, registry), dataset, typed, registry, locate);
 }
 
+// What the fit ended with: its parameters, finest level and each curve stage's degree.
+void record_end(const FitContext& context, FitReport* report) {
+  report->parameters = context.params;
+  report->finest_level = context.finest_level;
+  report->curve_degrees.clear();
+  for (const CurveStage& c : context.fitted_curves)
+    report->curve_degrees.emplace_back(c.label, (context.params.*(c.term->curve_member)).degree());
+}
+
 FitReport run_fit(const Dataset& dataset, const Options& options, const Registry& registry,
                   const FitProgress& progress, FitReport* finished) {
   const auto start = Clock::now();
@@ -202,14 +211,12 @@ FitReport run_fit(const Dataset& dataset, const Options& options, const Registry
     if (finished) {
       if (!running.empty()) merge(report, std::move(part), running + " (failed)", seconds_since(stage_start));
       *finished = report;
-      finished->parameters = context.params;
-      finished->finest_level = context.finest_level;
+      record_end(context, finished);
     }
     throw;
   }
   report.timing_s.emplace_back("total", seconds_since(start));
-  report.parameters = context.params;
-  report.finest_level = context.finest_level;
+  record_end(context, &report);
   return report;
 }
 

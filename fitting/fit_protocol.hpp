@@ -174,6 +174,9 @@ struct FitReport {
   MaterialParameters parameters;
   std::vector<FitInitialGuess> initial_guess;
   std::vector<FitStageRecord> stages;
+  /// Per curve stage that ran, its label and the degree its curve ended at (`stages` also holds
+  /// the raises the degree search tried and did not keep).
+  std::vector<std::pair<std::string, int>> curve_degrees;
   std::vector<FitRefinement> refinement;  ///< per stage and finer level, in fit order
   std::string finest_resolution;          ///< where the final curves and validation ran
   int finest_level = 0;                   ///< its level (0: the coarsest; FitContext::finest_level)

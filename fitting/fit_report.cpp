@@ -130,6 +130,8 @@ json report_json(const FitReport& r, const Options& config) {
                            {"status", s.status}, {"message", s.message}, {"iterations", s.iterations},
                            {"evaluations", s.evaluations}, {"equilibrium_solves", s.equilibrium_solves},
                            {"wall_time_s", s.wall_time_s}});
+  j["curve_degrees"] = json::object();
+  for (const auto& [stage, degree] : r.curve_degrees) j["curve_degrees"][stage] = degree;
   j["refinement"] = json::array();
   for (const auto& f : r.refinement) {
     json changes = json::array();

@@ -55,23 +55,42 @@ void parameter_metrics(const json& p, Metrics* out) {
   }
 }
 
-// Per stage: its last entry's error and degree (its finest level). Over all optimiser runs of
-// the fit (one per stage, level and degree tried): counts, and how many ended other than
-// converged (stalled, an iteration or evaluation limit, a failed line search).
-void stage_metrics(const json& stages, Metrics* out) {
-  std::map<std::string, double> last_error, last_degree;
+// The degree each curve stage's curve ended at: report.json's `curve_degrees`; in reports
+// written before it, the degree of the fit table's curves of the stage's label (the fit table
+// names tests, which the paper's protocols label as their stages).
+json kept_degrees(const json& report) {
+  if (report.contains("curve_degrees")) return report.at("curve_degrees");
+  json kept = json::object();
+  for (const json& c : report.at("fit"))
+    if (c.contains("degree") && c.at("degree").is_number()) kept[c.at("label").get<std::string>()] = c.at("degree");
+  return kept;
+}
+
+// Per stage: its error and degree at the end — the last optimiser run at the degree its curve
+// ended at (the degree search's last try may be a raise it did not keep), else its last run.
+// Over all optimiser runs of the fit (one per stage, level and degree tried): counts, and how
+// many ended other than converged (stalled, an iteration or evaluation limit, a failed line
+// search).
+void stage_metrics(const json& report, Metrics* out) {
+  const json kept = kept_degrees(report);
+  std::map<std::string, const json*> last, last_kept;
   double iterations = 0, evaluations = 0, solves = 0, not_converged = 0;
-  for (const json& s : stages) {
-    last_error[s.at("stage").get<std::string>()] = s.at("avg_rel_error").get<double>();
-    if (s.contains("degree") && s.at("degree").is_number()) last_degree[s.at("stage").get<std::string>()] = s.at("degree").get<double>();
+  for (const json& s : report.at("stages")) {
+    const std::string stage = s.at("stage").get<std::string>();
+    last[stage] = &s;
+    if (kept.contains(stage) && s.value("degree", json()) == kept.at(stage)) last_kept[stage] = &s;
     if (s.value("status", "converged") != "converged") ++not_converged;
     iterations += s.at("iterations").get<double>();
     evaluations += s.at("evaluations").get<double>();
     solves += s.at("equilibrium_solves").get<double>();
   }
-  for (const auto& [stage, error] : last_error) out->emplace_back("error.stage." + stage, error);
-  for (const auto& [stage, degree] : last_degree) out->emplace_back("degree.stage." + stage, degree);
-  out->emplace_back("count.optimizer_runs", static_cast<double>(stages.size()));
+  for (auto [stage, s] : last) {
+    if (last_kept.count(stage)) s = last_kept.at(stage);
+    out->emplace_back("error.stage." + stage, s->at("avg_rel_error").get<double>());
+    if (s->contains("degree") && s->at("degree").is_number())
+      out->emplace_back("degree.stage." + stage, s->at("degree").get<double>());
+  }
+  out->emplace_back("count.optimizer_runs", static_cast<double>(report.at("stages").size()));
   out->emplace_back("count.optimizer_runs_not_converged", not_converged);
   out->emplace_back("count.iterations", iterations);
   out->emplace_back("count.evaluations", evaluations);
@@ -113,7 +132,7 @@ std::vector<std::pair<std::string, double>> fit_metrics(const nlohmann::json& re
   Metrics out;
   curve_errors(report.at("fit"), "error.fit", &out);
   curve_errors(report.at("validation"), "error.validation", &out);
-  stage_metrics(report.at("stages"), &out);
+  stage_metrics(report, &out);
   parameter_metrics(report.at("parameters"), &out);
   for (const json& b : report.at("bend"))
     if (b.at("chord_angle_deg").is_number())
