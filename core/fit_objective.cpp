@@ -1,5 +1,6 @@
 #include "core/fit_objective.hpp"
 
+#include <Eigen/QR>
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -292,7 +293,7 @@ bool FitObjective::compute(const Eigen::VectorXd& x, bool want_jacobian) {
     const Eigen::Index n = measured.size();
     predictions_[i] = scales[i] * values[i];
     r.segment(row, n) = sqrt_w * (predictions_[i] - measured).cwiseQuotient(measured);
-    // Scales held: exact for the gradient (envelope theorem, core/specimen_scale.hpp).
+    // Scales held here; projected below (core/specimen_scale.hpp).
     if (want_jacobian)
       cache_j_.middleRows(row, n) =
           (sqrt_w * scales[i] * measured.cwiseInverse()).asDiagonal() * (dvalues[i] * dk_dx);
@@ -300,7 +301,33 @@ bool FitObjective::compute(const Eigen::VectorXd& x, bool want_jacobian) {
   }
   scales_ = scales;
   cache_r_ = r;
+  if (want_jacobian) project_out_scale_directions(&cache_j_);
   return std::isfinite(r.sum());
+}
+
+void FitObjective::project_out_scale_directions(Eigen::MatrixXd* jacobian) const {
+  std::map<int, std::vector<int>> members;  // group -> its columns in scale_columns()
+  int column = 0;
+  for (int group : scale_groups_)
+    if (group >= 0) members[group].push_back(column++);
+  if (column == 0) return;
+  const Eigen::MatrixXd columns = scale_columns();
+  // The directions the constrained scales can move the residuals in: Σ_r du_r = 0 per group,
+  // spanned by each run's column minus its group's mean column. Those n sum to zero, so one is
+  // left out: a basis, whose QR needs no rank decision (an exactly deficient one had pivots at
+  // round-off and amplified it).
+  std::vector<Eigen::VectorXd> directions;
+  for (const auto& [group, indices] : members) {
+    if (indices.size() < 2) continue;
+    Eigen::VectorXd mean = Eigen::VectorXd::Zero(columns.rows());
+    for (int i : indices) mean += columns.col(i);
+    mean /= static_cast<double>(indices.size());
+    for (size_t i = 0; i + 1 < indices.size(); ++i) directions.push_back(columns.col(indices[i]) - mean);
+  }
+  if (directions.empty()) return;
+  Eigen::MatrixXd span(columns.rows(), static_cast<Eigen::Index>(directions.size()));
+  for (size_t i = 0; i < directions.size(); ++i) span.col(static_cast<Eigen::Index>(i)) = directions[i];
+  *jacobian -= span * span.householderQr().solve(*jacobian);
 }
 
 Eigen::MatrixXd FitObjective::scale_columns() const {

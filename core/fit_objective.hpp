@@ -158,6 +158,9 @@ class FitObjective : public Problem {
   // false with failure_ set when one fails.
   bool predict_all(const MaterialParameters& k, bool want_jacobian, std::vector<Eigen::VectorXd>* values,
                    std::vector<Eigen::MatrixXd>* jacobians);
+  // Kaufman's variable-projection Jacobian: the scales-held Jacobian minus its projection onto
+  // the residual directions the (constrained) scales can move (core/specimen_scale.hpp).
+  void project_out_scale_directions(Eigen::MatrixXd* jacobian) const;
   // The profiled specimen scales of the raw predictions (1 outside a group).
   std::vector<double> profiled_scales(const std::vector<Eigen::VectorXd>& values) const;
 

@@ -23,8 +23,14 @@
 //
 // Derivatives: at the constrained optimum ∂f/∂u_r = λ for all r and Σ du_r = 0, so the
 // envelope theorem gives the profiled objective's gradient as ∂/∂k at fixed scales:
-// ∇ε = 2 Jᵀ r with J = diag(√w s_r / p̆) ∂p̂/∂k. That J is exact for the gradient and the
-// Kaufman approximation of the variable-projection Jacobian for Gauss–Newton's model.
+// ∇ε = 2 J_sᵀ r with J_s = diag(√w s_r / p̆) ∂p̂/∂k. The Jacobian handed to the optimisers is
+// Kaufman's variable-projection Jacobian (L. Kaufman, BIT 15, 1975; Golub & Pereyra, Inverse
+// Problems 19, 2003, §3): J = (I − P) J_s, P the orthogonal projection onto the residual
+// directions the scales can take, the columns S_r = √w s_r q_r (on run r's rows) minus their
+// group's mean (Σ du_r = 0). Its gradient is the same (the stationarity of the scales is
+// Pᵀr = 0 up to the profiling's round-off); Gauss–Newton's model JᵀJ then no longer counts on
+// decreases the scales have already taken (the derivative of the profiled residual, dropping
+// terms proportional to the residual). Measured: docs/fitting.md §3b.
 #include <Eigen/Core>
 #include <vector>
 
