@@ -314,8 +314,8 @@ void check_misalignment_offsets(const std::string& name, bool scales) {
                                             {"weft", 0, 300, loading, weft, scales ? weft_scales : none},
                                             {"bias", 45, 300, loading, bias, scales ? bias_scales : none}});
   Options config = config_with("misalignment", ", rounds: 5", "", ", {name: final-curves}");
-  apply_overrides(config, fit_config_schema(), &registry(), {"repeats.rule=all"});
-  if (scales) apply_overrides(config, fit_config_schema(), &registry(), {"repeats.scale=per-run"});
+  apply_overrides(config, fit_config_schema(), &registry(),
+                  {"repeats.rule=all", scales ? "repeats.scale=per-run" : "repeats.scale=none"});
   const FitReport report = run_fit(read_dataset(folder), config, registry(), [](int level, const std::string& line) {
     if (level == 0 && line.find("round") != std::string::npos) std::printf("[measured] %s\n", line.c_str());
   });
@@ -403,7 +403,7 @@ TEST(FitWithSpecimenScales, PerRunScalesRemoveTheSpecimenScatterExactly) {
                                            {"weft", 0, 300, loading, aligned, none},
                                            {"bias", 45, 300, loading, aligned, none}});
   Options config = config_with("", "", "", ", {name: final-curves}");
-  apply_overrides(config, fit_config_schema(), &registry(), {"repeats.rule=all"});
+  apply_overrides(config, fit_config_schema(), &registry(), {"repeats.rule=all", "repeats.scale=none"});
   const FitReport unscaled = run_fit(read_dataset(scattered), config, registry(), {});
   apply_overrides(config, fit_config_schema(), &registry(), {"repeats.scale=per-run"});
   // Profiled on equal specimens the scales stay 1 (by symmetry); on the scattered ones the

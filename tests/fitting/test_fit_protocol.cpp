@@ -277,7 +277,7 @@ TEST(FitProtocolAsData, AblationsByConfigAlone) {
   for (const char* title : {"warp (degree, coarsest level)", "resolution ladder", "final curves", "total"})
     EXPECT_NE(std::find(titles.begin(), titles.end(), title), titles.end()) << title;
   EXPECT_EQ(std::find(titles.begin(), titles.end(), "initial_guess"), titles.end());
-  EXPECT_EQ(report.fit.size(), 3u);
+  EXPECT_EQ(report.fit.size(), 7u);  // the default repeat rule: the largest warp and weft run, all 5 bias runs
 }
 
 // start-from (papers/transfer/): a fit's params.yaml evaluated again without fitting gives
@@ -290,8 +290,10 @@ TEST(FitProtocolAsData, StartFromEvaluatesGivenParametersWithoutFitting) {
       "{name: tensile-curve, label: warp, angle_deg: 90, term: eta1, max_degree: 1, uniform_starts: false},"
       " {name: tensile-curve, label: weft, angle_deg: 0, term: eta3, max_degree: 1, uniform_starts: false},"
       " {name: tensile-curve, label: bias, angle_deg: 45, term: eta4, max_degree: 1, uniform_starts: false}";
+  // Without specimen scales: params.yaml holds the material, not the fit's per-run scales, so a
+  // start-from evaluation compares every run at scale 1 (docs/fitting.md §6, start-from).
   const std::vector<std::string> tiny = {"resolution.coarse_cells_across=2", "data.max_points=6",
-                                         "experiments.bend.cells_along=16"};
+                                         "experiments.bend.cells_along=16", "repeats.scale=none"};
   std::vector<std::string> fit_overrides = tiny;
   fit_overrides.push_back("protocol=[" + curves + ", {name: bend, find_overhang: false}, {name: final-curves, warm_start: false}]");
   const Options fit_config = coarse_config(fit_overrides);
