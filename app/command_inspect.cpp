@@ -1,5 +1,5 @@
 // `twill inspect DATASET [--plot FILE] [--seed N]`: what a dataset folder holds, as twill reads
-// it (core/dataset.hpp), and which repeat the paper's rule would fit (core/repeat_selection.hpp).
+// it (core/dataset.hpp), and which repeats `twill fit` fits by default (core/repeat_selection.hpp).
 // With --plot, every raw force–extension curve is drawn, one panel per tensile test, by
 // scripts/plot_curves.py from a JSON file written to a temporary folder.
 #include <fmt/format.h>
@@ -14,6 +14,7 @@
 #include "app/python_script.hpp"
 #include "core/dataset.hpp"
 #include "core/repeat_selection.hpp"
+#include "fitting/fit_config.hpp"
 
 namespace twill {
 namespace {
@@ -21,7 +22,7 @@ namespace {
 struct InspectOptions {
   std::string dataset;
   std::string plot;
-  std::uint64_t seed = 0;
+  std::uint64_t seed = static_cast<std::uint64_t>(FitRepeats{}.seed);  // twill fit's, so both pick the same run
 };
 
 std::string range_text(const std::vector<double>& v) {
@@ -30,6 +31,13 @@ std::string range_text(const std::vector<double>& v) {
 }
 
 std::string yes_no(bool b) { return b ? "yes" : "no"; }
+
+// The name of twill fit's default repeat rule (fitting/fit_config.hpp holds the default).
+std::string default_rule_name() {
+  for (const auto& [name, rule] : repeat_rule_names())
+    if (rule == FitRepeats{}.rule) return name;
+  return "?";
+}
 
 // Whether run r of a fit test is the one the repeat rule selects (validation tests use all).
 bool fitted(const TensileTest& t, const RepeatSelection& s, std::size_t r) {
@@ -62,7 +70,8 @@ void print_dataset(std::ostream& out, const Dataset& d, const std::vector<Repeat
                          yes_no(run.has_time()));
     }
     if (t.role == TestRole::Fit)
-      out << fmt::format("    * the run the paper's rule fits (§6.4, --seed {}): {}\n", seed, selections[i].reason);
+      out << fmt::format("    * fitted by default (repeats.rule: {}; §6.4, --seed {}): {}\n", default_rule_name(), seed,
+                         selections[i].reason);
     else
       out << "    (validation test: every run is compared with the fitted model, paper §7)\n";
   }
@@ -95,7 +104,7 @@ nlohmann::json plot_data(const Dataset& d, const std::vector<RepeatSelection>& s
                       {"ylabel", "force [N]"},
                       {"curves", curves}});
   }
-  return {{"title", fmt::format("{}: raw tensile curves (thick: the run the paper's rule fits)", d.name)},
+  return {{"title", fmt::format("{}: raw tensile curves (thick: fitted by default)", d.name)},
           {"panels", panels}};
 }
 
@@ -113,7 +122,7 @@ void check_plot_path(const std::string& path) {
 void run_inspect(const Context& context, const InspectOptions& o) {
   if (!o.plot.empty()) check_plot_path(o.plot);  // before any work: fail fast on a typo
   const Dataset d = read_dataset(o.dataset);
-  const auto selections = select_repeats(d, RepeatRule::Paper, o.seed);
+  const auto selections = select_repeats(d, FitRepeats{}.rule, o.seed);
   print_dataset(std::cout, d, selections, o.seed);
   if (o.plot.empty()) return;
   if (d.tensile.empty()) throw InputError({o.dataset, 0, "tensile"}, "nothing to plot: the dataset has no tensile tests");
