@@ -2,6 +2,7 @@
 // resolution, its outputs, and its input errors. The acceptance figures of issue #6 at the
 // paper's resolutions are measured by `twill fit` itself (README, papers/); this suite checks
 // that the pipeline runs and produces honest reports in a CI-sized budget.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -53,7 +54,8 @@ Options without_stages(Options config, const std::vector<std::string>& kinds) {
 TEST(FitProtocol, CanvasExampleEndToEndAtCoarseResolution) {
   const Dataset dataset = read_dataset(std::string(TWILL_SOURCE_DIR) + "/examples/canvas");
   // With the misalignment effect (effects/misalignment.hpp): its spread is estimated from the
-  // validation offsets and written to params.yaml.
+  // validation offsets and the fit runs' (the default repeat rule fits five bias runs, so the
+  // effect-fit turns every fit run) and written to params.yaml.
   const Options config = coarse_config({"effects=[misalignment]"});
   std::vector<std::string> lines;
   const FitReport report = run_fit(dataset, config, registry(),
@@ -81,12 +83,18 @@ TEST(FitProtocol, CanvasExampleEndToEndAtCoarseResolution) {
   EXPECT_FALSE(report.validation.empty());
   double sum_squares = 0;
   for (const FitCurve& v : report.validation) sum_squares += v.delta_theta_deg * v.delta_theta_deg;
+  for (const FitCurve& c : report.fit) sum_squares += c.delta_theta_deg * c.delta_theta_deg;
+  const std::string estimated = fmt::format("estimated from the {} validation offsets and {} fit-run offsets",
+                                            report.validation.size(), report.fit.size());
+  EXPECT_TRUE(std::any_of(report.notes.begin(), report.notes.end(),
+                          [&](const std::string& n) { return n.find(estimated) != std::string::npos; }))
+      << estimated;
   ASSERT_EQ(p.effects.size(), 1u);
   EXPECT_EQ(p.effects[0].name, "misalignment");
   EXPECT_DOUBLE_EQ(p.effects[0].options.get_double("spread_deg"),
-                   std::sqrt(sum_squares / static_cast<double>(report.validation.size())));
-  std::printf("[measured] coarse fit misalignment spread %.3f deg over %zu validation runs\n",
-              p.effects[0].options.get_double("spread_deg"), report.validation.size());
+                   std::sqrt(sum_squares / static_cast<double>(report.validation.size() + report.fit.size())));
+  std::printf("[measured] coarse fit misalignment spread %.3f deg over %zu validation and %zu fit runs\n",
+              p.effects[0].options.get_double("spread_deg"), report.validation.size(), report.fit.size());
   EXPECT_FALSE(lines.empty());
   EXPECT_EQ(report.timing_s.back().first, "total");
 
