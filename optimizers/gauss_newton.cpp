@@ -46,6 +46,22 @@ Eigen::VectorXd model_step(const Linearization& at, const std::vector<int>& free
   return h;
 }
 
+// The damping at which the first step is at most options.max_first_step long (Euclidean, in x):
+// λ₀ raised by kFirstStepDampingFactor until it is (‖h(λ)‖ falls as λ grows). The rule of
+// BFGS's first step (bfgs.hpp) and Ipopt's (ipopt_optimizer.hpp): before any trial nothing says
+// how far the linear model can be trusted, and a Jacobian with a nearly flat direction (a degree
+// raise's new term that can merge with an old one, docs/fitting.md §3b) makes the undamped step
+// thousands of units long. Later steps are governed by the gain ratio alone.
+constexpr double kFirstStepDampingFactor = 2.0;  // at most 2x more damping than needed
+
+double damping_for_first_step(const Linearization& at, const std::vector<int>& free, double lambda,
+                              const GaussNewtonOptions& options) {
+  if (options.max_first_step <= 0.0) return lambda;
+  while (lambda < options.max_lambda && model_step(at, free, lambda).norm() > options.max_first_step)
+    lambda *= kFirstStepDampingFactor;
+  return std::min(lambda, options.max_lambda);
+}
+
 }  // namespace
 
 std::vector<OptionBinding<GaussNewtonOptions>> gauss_newton_option_bindings() {
@@ -59,6 +75,10 @@ std::vector<OptionBinding<GaussNewtonOptions>> gauss_newton_option_bindings() {
   bindings.push_back(real_option<GaussNewtonOptions>(
       "initial_lambda", &GaussNewtonOptions::initial_lambda,
       "initial Levenberg-Marquardt damping, relative to diag(J'J)", positive));
+  bindings.push_back(real_option<GaussNewtonOptions>(
+      "max_first_step", &GaussNewtonOptions::max_first_step,
+      "Levenberg-Marquardt: the damping is raised until the first step is at most this long in x (0: off)",
+      [](OptionSpec& s) { s.at_least(0.0); }));
   bindings.push_back(real_option<GaussNewtonOptions>("max_lambda", &GaussNewtonOptions::max_lambda,
                                                      "stop (stalled) when the damping exceeds this",
                                                      positive));
@@ -132,6 +152,8 @@ void GaussNewton::run(CountedProblem& problem, Eigen::VectorXd x0, OptimizerResu
     for (Eigen::Index i = 0; i < n; ++i)
       if (!((x[i] <= lower[i] && g[i] > 0.0) || (x[i] >= upper[i] && g[i] < 0.0)))
         free.push_back(static_cast<int>(i));
+
+    if (k == 1 && levenberg_marquardt) lambda = damping_for_first_step(current, free, lambda, options_);
 
     Linearization trial;
     for (;;) {  // until a step is accepted (LM may reject several)

@@ -149,4 +149,19 @@ class ExponentialFit : public LeastSquaresTestProblem {
   Eigen::VectorXd t_, y_;
 };
 
+// f = 100 ‖x − x*‖² with x* = (1000, 1000, 1000): far from the start 0 and steep (‖∇f‖∞ 2e5),
+// so a long first step along −∇f is still downhill and a line search accepts all of it.
+class FarSteepBowl : public LeastSquaresTestProblem {
+ public:
+  FarSteepBowl() : LeastSquaresTestProblem(3) {}
+  void compute(const Eigen::VectorXd& x, Eigen::VectorXd& r, Eigen::MatrixXd* J) const override {
+    r = kSlope * (x - minimum());
+    if (J) *J = kSlope * Eigen::MatrixXd::Identity(3, 3);
+  }
+  static Eigen::VectorXd minimum() { return Eigen::VectorXd::Constant(3, 1000.0); }
+
+ private:
+  static constexpr double kSlope = 10.0;
+};
+
 }  // namespace twill::testing
