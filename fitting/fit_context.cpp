@@ -280,7 +280,24 @@ std::unique_ptr<Optimizer> FitContext::make_optimizer(ComponentChoice choice, bo
   return registry_.create<OptimizerFactories>(registry_category::kOptimizer, choice);
 }
 
-FitContext::CurveFit FitContext::fit_curve(const CurveStage& stage, int level, MaterialParameters* p, bool refining) {
+// A degree raise's first optimiser step at most this long in the fit's coordinates x = k/|k0|
+// (1: a parameter moves by at most its own start value). A raise's new term makes the
+// Jacobian nearly flat along the line where it merges with an old one; there Gauss–Newton's
+// undamped first step was 5.3e3 long and the canvas bias raise slid onto the degree-1 line
+// (docs/fitting.md §3b). The option's name is Gauss–Newton's; an optimiser without it keeps
+// its own rule.
+constexpr double kRaiseMaxFirstStep = 1.0;
+constexpr const char* kFirstStepOption = "max_first_step";
+
+std::unique_ptr<Optimizer> FitContext::make_raise_optimizer() const {
+  ComponentChoice choice = config_.optimizer;
+  const RegistryCategory* optimizers = registry_.find_category(registry_category::kOptimizer);
+  const RegistryEntry* entry = optimizers ? optimizers->find(choice.name) : nullptr;
+  if (entry && entry->options.find(kFirstStepOption)) choice.options.set(kFirstStepOption, kRaiseMaxFirstStep);
+  return make_optimizer(choice);
+}
+
+FitContext::CurveFit FitContext::fit_curve(const CurveStage& stage, int level, MaterialParameters* p, CurveStart start) {
   const auto t = Clock::now();
   const auto runs = runs_for(stage.angle_deg);
   std::vector<std::shared_ptr<Predictor>> predictors;
@@ -300,7 +317,8 @@ FitContext::CurveFit FitContext::fit_curve(const CurveStage& stage, int level, M
     say(1, fmt::format("  {} {} degree {} it {:3d}: eps {:.4e} |g| {:.2e} ({} solves)", stage.label, resolution,
                        degree, it.iteration, it.value, it.gradient_norm, objective.equilibrium_solves()));
   });
-  std::unique_ptr<Optimizer> optimizer = make_optimizer(refining);
+  std::unique_ptr<Optimizer> optimizer =
+      start == CurveStart::raise ? make_raise_optimizer() : make_optimizer(start == CurveStart::refine);
   const OptimizerResult r = optimizer->minimize(objective, map.initial_x());
   CurveFit out;
   if (!std::isfinite(r.summary.final_value)) {

@@ -174,6 +174,9 @@ class FitContext {
   /// The config's optimiser (or `choice`) with the stages' limits (`refine`: a ladder refit's).
   std::unique_ptr<Optimizer> make_optimizer(bool refine = false) const;
   std::unique_ptr<Optimizer> make_optimizer(ComponentChoice choice, bool refine = false) const;
+  /// The config's optimiser for a degree raise: its first step bounded where the optimiser
+  /// leaves that to an option (Gauss–Newton's max_first_step; BFGS and Ipopt always bound it).
+  std::unique_ptr<Optimizer> make_raise_optimizer() const;
 
   // ---- the step several stages take ----
   struct CurveFit {
@@ -181,10 +184,13 @@ class FitContext {
     bool ok = false;
     std::vector<double> scales;  ///< the runs' profiled specimen scales (runs_for order; all 1 without)
   };
-  /// Fits `stage`'s free parameters of *p to its runs at `level` (Eq. 3), records it; `refining`:
-  /// a refit from a converged solution of the same degree, with the ladder's limits. The
+  /// Where a curve fit starts: a stage's first fit, a degree raise (§5.4: a converged curve plus
+  /// a new term, next to a line of stationary points), or a ladder refit (a converged solution
+  /// of the same degree, with the ladder's limits).
+  enum class CurveStart { first, raise, refine };
+  /// Fits `stage`'s free parameters of *p to its runs at `level` (Eq. 3), records it. The
   /// caller that keeps *p keeps the result's scales (keep_scales).
-  CurveFit fit_curve(const CurveStage& stage, int level, MaterialParameters* p, bool refining = false);
+  CurveFit fit_curve(const CurveStage& stage, int level, MaterialParameters* p, CurveStart start = CurveStart::first);
   /// A fit or validation run's curve record with its simulated forces.
   static FitCurve curve_record(const RunData& d, const std::string& role, const Eigen::VectorXd& simulated);
 

@@ -84,7 +84,7 @@ class ResolutionLadder final : public FitStage {
       for (const CurveStage* stage : open) {
         const auto t = Clock::now();
         MaterialParameters refined = context.params;
-        const FitContext::CurveFit fit = context.fit_curve(*stage, level, &refined, true);
+        const FitContext::CurveFit fit = context.fit_curve(*stage, level, &refined, FitContext::CurveStart::refine);
         if (!fit.ok) throw std::runtime_error("stage " + stage->label + ": fit failed at level " + std::to_string(level));
         context.params = refined;
         context.keep_scales(context.runs_for(stage->angle_deg), fit.scales);

@@ -152,7 +152,7 @@ class TensileCurveStage final : public FitStage {
         MaterialParameters trial = starts[a];
         context.say(0, fmt::format("{}: degree {} attempt {} starts with alpha_new = {:.3g}", stage_.label, degree,
                                    a + 1, curve_of(trial).alpha.back()));
-        const FitContext::CurveFit r = context.fit_curve(stage_, options_.level, &trial);
+        const FitContext::CurveFit r = context.fit_curve(stage_, options_.level, &trial, FitContext::CurveStart::raise);
         if (r.ok && (!raised_result.ok || r.error < raised_result.error)) {
           raised = trial;
           raised_result = r;

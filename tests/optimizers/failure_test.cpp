@@ -123,12 +123,7 @@ TEST(Failures, FailedEvaluationsAreSteppedAround) {
     FailingBeyond problem(1.2);
     // From −3 the first full steps land beyond 1.2 (Gauss–Newton's at x ≈ 50, BFGS's
     // extrapolation at x ≈ 1.3): every method must meet at least one failed evaluation.
-    // Gauss–Newton's first-step bound would keep it short of the limit, so it is off here:
-    // this test is about the steps after a failure.
-    const std::vector<std::string> unbounded =
-        o.name == "gauss-newton" ? std::vector<std::string>{"max_first_step=0"}
-                                                         : std::vector<std::string>{};
-    const OptimizerResult result = o.make(unbounded)->minimize(problem, Eigen::VectorXd::Constant(1, -3.0));
+    const OptimizerResult result = o.make()->minimize(problem, Eigen::VectorXd::Constant(1, -3.0));
     // NLopt cannot reject a trial point itself; the adapter restarts it in a box around the
     // best point (nlopt_optimizer.cpp), so it must step around failures like the others.
     // (Some NLopt algorithms never step beyond 1.2 from −3: then there is nothing to reject.)

@@ -12,9 +12,9 @@ namespace {
 using testing::FarSteepBowl;
 
 // On a linear least-squares problem the undamped model step is the whole way to the minimum
-// (‖h‖ = 1732 here); λ₀ = 1e-3 barely shortens it. With the bound (the default) the first step
-// is at most 1 long, as BFGS's and Ipopt's, and the run still gets there; without it (0) the
-// first step is the long one.
+// (‖h‖ = 1732 here); λ₀ = 1e-3 barely shortens it. With the bound (1, as the fit's degree
+// raises set it) the first step is at most 1 long, as BFGS's and Ipopt's, and the run still
+// gets there; without it (0, the default) the first step is the long one.
 TEST(GaussNewton, FirstStepIsAtMostMaxFirstStepLong) {
   for (const double bound : {1.0, 0.0}) {
     SCOPED_TRACE(bound);
