@@ -32,13 +32,6 @@ std::string range_text(const std::vector<double>& v) {
 
 std::string yes_no(bool b) { return b ? "yes" : "no"; }
 
-// The name of twill fit's default repeat rule (fitting/fit_config.hpp holds the default).
-std::string default_rule_name() {
-  for (const auto& [name, rule] : repeat_rule_names())
-    if (rule == FitRepeats{}.rule) return name;
-  return "?";
-}
-
 // Whether run r of a fit test is the one the repeat rule selects (validation tests use all).
 bool fitted(const TensileTest& t, const RepeatSelection& s, std::size_t r) {
   return t.role == TestRole::Fit && std::find(s.runs.begin(), s.runs.end(), r) != s.runs.end();
@@ -70,7 +63,7 @@ void print_dataset(std::ostream& out, const Dataset& d, const std::vector<Repeat
                          yes_no(run.has_time()));
     }
     if (t.role == TestRole::Fit)
-      out << fmt::format("    * fitted by default (repeats.rule: {}; §6.4, --seed {}): {}\n", default_rule_name(), seed,
+      out << fmt::format("    * fitted by default (repeats.rule: {}; §6.4, --seed {}): {}\n", to_string(FitRepeats{}.rule), seed,
                          selections[i].reason);
     else
       out << "    (validation test: every run is compared with the fitted model, paper §7)\n";

@@ -316,17 +316,15 @@ void FitObjective::project_out_scale_directions(Eigen::MatrixXd* jacobian) const
   // spanned by each run's column minus its group's mean column. Those n sum to zero, so one is
   // left out: a basis, whose QR needs no rank decision (an exactly deficient one had pivots at
   // round-off and amplified it).
-  std::vector<Eigen::VectorXd> directions;
+  Eigen::Index n_directions = 0;
+  for (const auto& [group, indices] : members) n_directions += static_cast<Eigen::Index>(indices.size()) - 1;
+  if (n_directions == 0) return;
+  Eigen::MatrixXd span(columns.rows(), n_directions);
+  Eigen::Index d = 0;
   for (const auto& [group, indices] : members) {
-    if (indices.size() < 2) continue;
-    Eigen::VectorXd mean = Eigen::VectorXd::Zero(columns.rows());
-    for (int i : indices) mean += columns.col(i);
-    mean /= static_cast<double>(indices.size());
-    for (size_t i = 0; i + 1 < indices.size(); ++i) directions.push_back(columns.col(indices[i]) - mean);
+    const Eigen::VectorXd mean = columns(Eigen::all, indices).rowwise().mean();
+    for (size_t i = 0; i + 1 < indices.size(); ++i) span.col(d++) = columns.col(indices[i]) - mean;
   }
-  if (directions.empty()) return;
-  Eigen::MatrixXd span(columns.rows(), static_cast<Eigen::Index>(directions.size()));
-  for (size_t i = 0; i < directions.size(); ++i) span.col(static_cast<Eigen::Index>(i)) = directions[i];
   *jacobian -= span * span.householderQr().solve(*jacobian);
 }
 

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "core/problem.hpp"
+#include "optimizers/optimizer.hpp"
 
 namespace twill::testing {
 
@@ -163,5 +164,11 @@ class FarSteepBowl : public LeastSquaresTestProblem {
  private:
   static constexpr double kSlope = 10.0;
 };
+
+/// The length (∞-norm) of a run's first accepted step; NaN when it took none.
+inline double first_step_length(const OptimizerResult& result) {
+  return result.summary.trace.size() < 2 ? std::numeric_limits<double>::quiet_NaN()
+                                         : result.summary.trace[1].step_length;
+}
 
 }  // namespace twill::testing
