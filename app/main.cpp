@@ -4,11 +4,13 @@
 // command_<name>.cpp, and turns errors into `twill: error: <message>` with an exit status:
 // 0 success, 1 failure, 2 bad input (InputError or a malformed command line).
 #include <CLI/CLI.hpp>
+#include <cstdlib>
 #include <exception>
 #include <iostream>
 
 #include "app/commands.hpp"
 #include "core/input_error.hpp"
+#include "core/sparse_cholesky.hpp"
 #include "app/program_registry.hpp"
 
 namespace {
@@ -24,9 +26,18 @@ std::filesystem::path scripts_dir() {
 #endif
 }
 
+// twill parallelises with TBB (assembly, curves, points); OpenBLAS's own threads inside each
+// CHOLMOD factorisation then oversubscribe the cores and spin (core/sparse_cholesky.hpp:
+// measured 2x slower fits). One BLAS thread unless the environment chose a count.
+void use_one_blas_thread() {
+  if (std::getenv("OPENBLAS_NUM_THREADS") || std::getenv("OMP_NUM_THREADS")) return;
+  twill::SparseCholesky::set_blas_threads(1);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
+  use_one_blas_thread();
   twill::Context context;
   context.scripts_dir = scripts_dir();
   CLI::App app{"twill: fabric tests -> simulation-ready cloth parameters\n"

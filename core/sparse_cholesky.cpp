@@ -485,6 +485,32 @@ double SparseCholesky::reciprocal_condition_estimate() const {
   return cholmod_rcond(impl_->factor, &impl_->common);
 }
 
+namespace {
+
+// A function of the loaded BLAS by name, or nullptr (dlsym's void* to a function pointer).
+template <typename Function>
+Function blas_function(const char* name) {
+  void* symbol = dlsym(RTLD_DEFAULT, name);
+  Function function = nullptr;
+  static_assert(sizeof(function) == sizeof(symbol));
+  if (symbol) std::memcpy(&function, &symbol, sizeof(function));
+  return function;
+}
+
+}  // namespace
+
+bool SparseCholesky::set_blas_threads(int threads) {
+  const auto set = blas_function<void (*)(int)>("openblas_set_num_threads");
+  if (!set) return false;
+  set(threads);
+  return true;
+}
+
+int SparseCholesky::blas_threads() {
+  const auto get = blas_function<int (*)()>("openblas_get_num_threads");
+  return get ? get() : 0;
+}
+
 std::string SparseCholesky::blas_library() {
   void* dgemm = dlsym(RTLD_DEFAULT, "dgemm_");
   if (!dgemm) return "unknown";
@@ -492,13 +518,8 @@ std::string SparseCholesky::blas_library() {
   Dl_info info{};
   if (dladdr(dgemm, &info) != 0 && info.dli_fname) name = info.dli_fname;
   // OpenBLAS exports its build description; the reference BLAS has no such symbol.
-  if (void* symbol = dlsym(RTLD_DEFAULT, "openblas_get_config")) {
-    using ConfigFunction = char* (*)();
-    ConfigFunction config = nullptr;
-    static_assert(sizeof(config) == sizeof(symbol));
-    std::memcpy(&config, &symbol, sizeof(config));
+  if (const auto config = blas_function<char* (*)()>("openblas_get_config"))
     if (const char* text = config()) name += std::string(" (") + text + ")";
-  }
   return name;
 }
 

@@ -39,7 +39,9 @@
 // (parallel fits, a shared machine) these oversubscribe. Measured on the 2-core build machine
 // under load: a 19,683-dof Newton solve took 2.4 s with default threading and 0.44 s with
 // OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1. Thread counts are process-wide settings, so they
-// belong to the program's entry point, not to this class.
+// belong to the program's entry point, not to this class: `twill` sets OpenBLAS to one thread
+// unless the environment names a count (app/main.cpp; a whole canvas validation stage took
+// 92 s with OpenBLAS's default threads and 46 s with one, sys time 74 s → 8 s).
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
 #include <memory>
@@ -146,6 +148,11 @@ class SparseCholesky {
   /// The shared library that provides the BLAS `dgemm_` symbol in this process, plus
   /// OpenBLAS's configuration string when it is OpenBLAS; "unknown" if it cannot be told.
   static std::string blas_library();
+  /// Sets OpenBLAS's thread count when OpenBLAS is the loaded BLAS (openblas_set_num_threads,
+  /// looked up at run time: no link dependency); false when it is not. Process-wide.
+  static bool set_blas_threads(int threads);
+  /// OpenBLAS's thread count (openblas_get_num_threads), or 0 when OpenBLAS is not loaded.
+  static int blas_threads();
 
  private:
   struct Impl;

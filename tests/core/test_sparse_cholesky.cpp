@@ -307,5 +307,17 @@ TEST(SparseCholesky, ReportsTheBlasInUse) {
   EXPECT_NE(blas.find("blas"), std::string::npos) << blas;
 }
 
+// twill's entry point sets OpenBLAS to one thread through this (app/main.cpp).
+TEST(SparseCholesky, SetsOpenBlasThreadsAtRunTime) {
+  if (SparseCholesky::blas_library().find("OpenBLAS") == std::string::npos)
+    GTEST_SKIP() << "the loaded BLAS is not OpenBLAS: " << SparseCholesky::blas_library();
+  const int before = SparseCholesky::blas_threads();
+  ASSERT_TRUE(SparseCholesky::set_blas_threads(2));
+  EXPECT_EQ(SparseCholesky::blas_threads(), 2);
+  ASSERT_TRUE(SparseCholesky::set_blas_threads(1));
+  EXPECT_EQ(SparseCholesky::blas_threads(), 1);
+  SparseCholesky::set_blas_threads(before);
+}
+
 }  // namespace
 }  // namespace twill
