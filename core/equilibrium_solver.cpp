@@ -160,7 +160,7 @@ double EquilibriumSolver::automatic_time_step() const {
 
 EquilibriumSolver::SearchResult EquilibriumSolver::line_search(
     Eigen::VectorXd* q, double* psi, double slope, double quadratic, RoundoffRule rule,
-    double* alpha, EquilibriumSummary* summary) {
+    bool trial_hessian, double* alpha, EquilibriumSummary* summary) {
   const double psi0 = *psi;
   const double gradient_norm0 = max_abs(g_f_);
   const double roundoff = options_.energy_roundoff * std::fabs(psi0);
@@ -171,9 +171,9 @@ EquilibriumSolver::SearchResult EquilibriumSolver::line_search(
     // The full step is evaluated with gradient and Hessian: Newton accepts it most of the
     // time, and then the next iteration needs both. Shorter steps are tried on Ψ alone.
     const bool full = attempt == 0;
-    const double psi_trial = full ? evaluate(q_trial_, &trial_gradient_, &hessian_, summary)
+    const double psi_trial = full ? evaluate(q_trial_, &trial_gradient_, trial_hessian ? &hessian_ : nullptr, summary)
                                   : evaluate(q_trial_, nullptr, nullptr, summary);
-    if (full) hessian_at_q_ = false;
+    if (full && trial_hessian) hessian_at_q_ = false;
     const double phi_trial = psi_trial + quadratic * step * step;
     bool accept = std::isfinite(phi_trial) && phi_trial <= psi0 + options_.armijo_c1 * step * slope;
     if (full && accept && !trial_gradient_.allFinite()) accept = false;
@@ -197,10 +197,11 @@ EquilibriumSolver::SearchResult EquilibriumSolver::line_search(
       *psi = psi_trial;
       if (full) {
         gradient_.swap(trial_gradient_);
+        hessian_at_q_ = trial_hessian;
       } else {
         evaluate(*q, &gradient_, &hessian_, summary);
+        hessian_at_q_ = true;
       }
-      hessian_at_q_ = true;
       *alpha = step;
       return SearchResult::kAccepted;
     }
@@ -245,7 +246,7 @@ bool EquilibriumSolver::backward_euler(Eigen::VectorXd* q, double* psi, double* 
       const double quadratic =
           0.5 * inverse_h2 * (mass_f_.array() * direction_.array().square()).sum();
       double alpha = 0;
-      if (line_search(q, psi, slope, quadratic, RoundoffRule::kArmijoOnly, &alpha, summary) ==
+      if (line_search(q, psi, slope, quadratic, RoundoffRule::kArmijoOnly, true, &alpha, summary) ==
           SearchResult::kAccepted) {
         ++summary->backward_euler_steps;
         stepped = true;
@@ -269,6 +270,24 @@ bool EquilibriumSolver::backward_euler(Eigen::VectorXd* q, double* psi, double* 
   return true;
 }
 
+std::string EquilibriumSolver::converged_with_previous_factor(EquilibriumSummary* summary) {
+  dofs_.gather_free(gradient_, &g_f_);
+  dofs_.gather_fixed(gradient_, &g_c_);
+  const double gradient_norm = max_abs(g_f_);
+  const double force = force_scale();
+  if (!(gradient_norm <= options_.gradient_tolerance * force)) return {};
+  cholesky_.solve(g_f_, &direction_);  // K̃: factorised at the iterate the full step left
+  const double decrement = g_f_.dot(direction_);
+  if (!(decrement >= 0 && decrement <= options_.decrement_tolerance * force * length_scale_m_)) return {};
+  summary->newton_decrement_J = decrement;
+  summary->decrement_from_previous_factor = true;
+  dofs_.extract_free_fixed(hessian_, &k_fc_);  // the previous iterate's, as the factor
+  predictor_factor_ = true;
+  return fmt::format("converged: |g_f|inf = {:.3e} N <= {:.1e} x {:.3e} N, lambda^2 = {:.3e} J (previous "
+                     "iterate's factor)",
+                     gradient_norm, options_.gradient_tolerance, force, decrement);
+}
+
 EquilibriumSummary EquilibriumSolver::solve(Eigen::VectorXd* q) {
   const auto start = Clock::now();
   if (q == nullptr || q->size() != dofs_.num_dofs()) {
@@ -278,6 +297,7 @@ EquilibriumSummary EquilibriumSolver::solve(Eigen::VectorXd* q) {
   EquilibriumSummary s;
   s.length_scale_m = length_scale_m_;
   factor_at_solution_ = false;
+  predictor_factor_ = false;
   hessian_at_q_ = false;
   double psi = 0;
 
@@ -340,6 +360,12 @@ EquilibriumSummary EquilibriumSolver::solve(Eigen::VectorXd* q) {
     if (!gradient_.allFinite() || !std::isfinite(psi)) {
       return finish(EquilibriumStatus::kNonFinite, "energy or gradient became non-finite");
     }
+    if (!hessian_at_q_) {  // a full step taken without the Hessian (solution factor not needed)
+      std::string converged = converged_with_previous_factor(&s);
+      if (!converged.empty()) return finish(EquilibriumStatus::kConverged, std::move(converged));
+      psi = evaluate(*q, &gradient_, &hessian_, &s);
+      hessian_at_q_ = true;
+    }
     dofs_.gather_free(gradient_, &g_f_);
     dofs_.gather_fixed(gradient_, &g_c_);
     const double gradient_norm = max_abs(g_f_);
@@ -369,7 +395,7 @@ EquilibriumSummary EquilibriumSolver::solve(Eigen::VectorXd* q) {
           s.newton_iterations, psi, gradient_norm, force, -slope);
       if (small_gradient && small_decrement) {
         dofs_.extract_free_fixed(hessian_, &k_fc_);
-        factor_at_solution_ = true;
+        factor_at_solution_ = predictor_factor_ = true;
         return finish(EquilibriumStatus::kConverged,
                       fmt::format("converged: |g_f|inf = {:.3e} N <= {:.1e} x {:.3e} N, "
                                   "lambda^2 = {:.3e} J",
@@ -401,7 +427,7 @@ EquilibriumSummary EquilibriumSolver::solve(Eigen::VectorXd* q) {
         hessian_at_q_ = true;
       }
       dofs_.extract_free_fixed(hessian_, &k_fc_);
-      factor_at_solution_ = true;
+      factor_at_solution_ = predictor_factor_ = true;
       s.at_roundoff_floor = true;
       return finish(EquilibriumStatus::kConverged,
                     fmt::format("converged at the round-off floor: |g_f|inf = {:.3e} N <= {:.1e} "
@@ -428,7 +454,7 @@ EquilibriumSummary EquilibriumSolver::solve(Eigen::VectorXd* q) {
       const SearchResult result =
           line_search(q, &psi, slope, 0.0,
                       small_gradient ? RoundoffRule::kByGradientOrFloor : RoundoffRule::kByGradient,
-                      &alpha, &s);
+                      solution_factor_needed_, &alpha, &s);
       if (result == SearchResult::kAccepted) {
         ++s.newton_iterations;
         continue;
@@ -497,8 +523,8 @@ ContinuationSummary EquilibriumSolver::solve_continuation(int num_steps,
       for (int dof : dofs_.free_dofs()) guess[dof] = previous[dof] + ratio * (previous[dof] - before_previous[dof]);
       predicted = true;
     } else if (options.predictor == ContinuationPredictor::kTangent && equilibria >= 1 &&
-               factor_at_solution_) {
-      solve_free_free(-(k_fc_ * (fixed_now - fixed_previous)), &response);
+               predictor_factor_) {
+      cholesky_.solve(Eigen::MatrixXd(-(k_fc_ * (fixed_now - fixed_previous))), &response);
       Eigen::VectorXd move = response.col(0);
       if (equilibria >= 2 && previous_response.size() == response.size()) {
         const double ratio = step_ratio();

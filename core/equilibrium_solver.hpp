@@ -64,6 +64,18 @@
 // converged solution the factor of K_ff *at the returned q* is available (factorization(),
 // solve_free_free()) for the sensitivity solve of paper Eq. 6: ∂q_f/∂k = −K_ff⁻¹ ∂g_f/∂k.
 //
+// A caller that needs no such factor (a curve evaluated without derivatives: validation
+// offsets, final curves) says so with set_solution_factor_needed(false). Then the trial of a
+// full Newton step is evaluated without the Hessian, and at the accepted iterate convergence
+// is tested with the factor K̃ of the iterate the step came from: ‖g_f‖∞ as above and
+// λ̃² = g_fᵀ K̃⁻¹ g_f ≤ decrement_tolerance·F·L (one back-substitution). K̃ differs from K_ff
+// at q by O(‖step‖), and a full step that ends the solve is a converging Newton step, so λ̃²
+// is λ² to that relative order — far inside the tolerance's meaning (≈ 2 × the energy still
+// to gain). When either test fails the Hessian at q is assembled and Newton goes on as
+// before. A converged solve then costs one Hessian assembly and one factorisation fewer (a
+// warm-started point: one of two); the returned q is the iterate the default would return
+// whenever both tests agree. has_solution_factorization() is false after such a solve.
+//
 // Non-convergence never throws: solve() returns a summary with a status and a message.
 // Bad arguments (wrong vector size, invalid options) throw std::invalid_argument.
 // Logging: spdlog at debug level only.
@@ -146,6 +158,8 @@ struct EquilibriumSummary {
   double force_scale_N = 0;       ///< F at the returned q
   double newton_decrement_J = 0;  ///< λ² at the last factorised Newton iterate (0 if none)
   bool at_roundoff_floor = false;  ///< converged by the round-off floor rule (header comment)
+  /// converged with λ̃² from the previous iterate's factor (set_solution_factor_needed(false))
+  bool decrement_from_previous_factor = false;
   double length_scale_m = 0;      ///< L used
   double time_step_s = 0;         ///< last backward-Euler h (0 when no fallback was taken)
   double wall_time_s = 0;
@@ -215,6 +229,10 @@ class EquilibriumSolver {
                                          Eigen::VectorXd* q, const StepObserver& observer = {},
                                          const ContinuationOptions& options = {});
 
+  /// false: the caller will not ask for the factor at the solution, so convergence may be
+  /// certified with the previous iterate's factor (header comment). Default true.
+  void set_solution_factor_needed(bool needed) { solution_factor_needed_ = needed; }
+
   const EquilibriumOptions& options() const { return options_; }
   const ConstrainedDofs& dofs() const { return dofs_; }
   const Discretization& discretization() const { return discretization_; }
@@ -256,8 +274,14 @@ class EquilibriumSolver {
   // slope g_fᵀd < 0; when accepted q, psi, gradient_ and hessian_ are at the accepted point
   // and *alpha is the step length; at the round-off floor q and psi are unchanged and
   // hessian_ no longer belongs to q.
+  // `trial_hessian` false: the full step's trial is evaluated without the Hessian, and an
+  // accepted full step leaves hessian_ (and K_ff's factor) at the previous iterate.
   SearchResult line_search(Eigen::VectorXd* q, double* psi, double slope, double quadratic,
-                           RoundoffRule rule, double* alpha, EquilibriumSummary* summary);
+                           RoundoffRule rule, bool trial_hessian, double* alpha,
+                           EquilibriumSummary* summary);
+  // At an iterate reached by a full step without the Hessian: both convergence tests, λ² from
+  // the previous iterate's factor (header comment); the message when they pass, else empty.
+  std::string converged_with_previous_factor(EquilibriumSummary* summary);
   bool backward_euler(Eigen::VectorXd* q, double* psi, double* time_step_s,
                       EquilibriumSummary* summary);
 
@@ -269,7 +293,11 @@ class EquilibriumSolver {
 
   bool patterns_ready_ = false;
   bool factor_at_solution_ = false;
+  // The factor and K_fc belong to the solution or to the iterate one converging Newton step
+  // before it: good enough for the continuation's tangent predictor.
+  bool predictor_factor_ = false;
   bool hessian_at_q_ = false;  // gradient_ and hessian_ belong to the current iterate
+  bool solution_factor_needed_ = true;
 
   // Work buffers, sized once per pattern.
   SparseMatrix hessian_, k_ff_, k_fc_, k_shifted_;

@@ -208,6 +208,12 @@ TensileCurve TensileExperiment::run(const std::vector<double>& extensions_mm,
     const double u = 1e-3 * extensions_mm[static_cast<size_t>(step)];
     for (int n : moving_nodes_) (*x)[3 * n] = rest[3 * n] + u;
   };
+  // Along the schedule the factor stays needed: the tangent predictor (docs/solver.md) is
+  // exact only with the solution's factor; with the previous iterate's the equilibria move
+  // within the solver's tolerance, and the misalignment fit's near-axis offsets (second order
+  // in θ) feel that (test MisalignmentOffsetsOfTheFitRunsWithSpecimenScales: worst warp
+  // offset error 0.017° → 0.163°). Warm-started points (run_from) are independent solves.
+  solver_.set_solution_factor_needed(true);
   auto on_step = [&](int step, const Eigen::VectorXd& x, const EquilibriumSummary& summary) {
     curve.points.push_back(measure(solver_, extensions_mm[static_cast<size_t>(step)], x, summary));
     if (observer) observer(step, x, solver_);
@@ -219,6 +225,13 @@ TensileCurve TensileExperiment::run(const std::vector<double>& extensions_mm,
   curve.newton_iterations = summary.total_newton_iterations;
   curve.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return curve;
+}
+
+EquilibriumSolver& TensileExperiment::use_solution_factor(EquilibriumSolver& solver) const {
+  // measure() needs the factor at the solution only for derivatives (Eq. 6, dF/dθ); a point
+  // retried from its predecessor (run_from) uses solver_ too and is set here again.
+  solver.set_solution_factor_needed(angle_plus_ != nullptr || !sensitivity_parameters_.empty());
+  return solver;
 }
 
 EquilibriumSolver& TensileExperiment::chunk_solver(size_t chunk) {
@@ -263,7 +276,7 @@ TensileCurve TensileExperiment::run_from(const std::vector<double>& extensions_m
     if (s.summary.converged) s.point = measure(solver, extensions_mm[i], s.q, s.summary);
   };
   const size_t chunks = std::min(n, static_cast<size_t>(std::max(1, tbb::this_task_arena::max_concurrency())));
-  for (size_t c = 0; c < chunks; ++c) chunk_solver(c);  // created here, not inside the tasks
+  for (size_t c = 0; c < chunks; ++c) use_solution_factor(chunk_solver(c));  // created here, not inside the tasks
   tbb::parallel_for(size_t{0}, chunks, [&](size_t c) {
     for (size_t i = c * n / chunks; i < (c + 1) * n / chunks; ++i) solve_point(chunk_solver(c), i, initial_guesses[i]);
   });
@@ -272,7 +285,7 @@ TensileCurve TensileExperiment::run_from(const std::vector<double>& extensions_m
   TensileCurve curve;
   curve.completed = true;
   for (size_t i = 0; i < n; ++i) {
-    if (!solved[i].point && i > 0) solve_point(solver_, i, solved[i - 1].q);
+    if (!solved[i].point && i > 0) solve_point(use_solution_factor(solver_), i, solved[i - 1].q);
     curve.newton_iterations += solved[i].newton_iterations;
     if (!solved[i].point) {
       curve.completed = false;

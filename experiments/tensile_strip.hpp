@@ -85,7 +85,9 @@ struct TensileCurve {
 class TensileExperiment {
  public:
   /// Called at each converged extension with the step index, the equilibrium q and the
-  /// solver (its factorisation of K_ff at q is valid: the sensitivity solve hooks in here).
+  /// solver (its factorisation of K_ff at q is valid: the sensitivity solve hooks in here;
+  /// run() keeps it, run_from() without derivatives does not, EquilibriumSolver::
+  /// set_solution_factor_needed).
   using EquilibriumObserver =
       std::function<void(int step, const Eigen::VectorXd& q, const EquilibriumSolver& solver)>;
 
@@ -151,6 +153,9 @@ class TensileExperiment {
   TensileSetup setup_;
   DiscretizationFactory factory_;
   std::unique_ptr<Discretization> discretization_;
+  /// Tells `solver` whether measure() will need its factor at the solution (derivatives);
+  /// returns it. For run_from's independent points only (run() keeps the factor: its comment).
+  EquilibriumSolver& use_solution_factor(EquilibriumSolver& solver) const;
   std::unique_ptr<Discretization> angle_plus_, angle_minus_;  ///< at θ ± kAngleStepDeg
   std::vector<int> moving_nodes_;
   std::vector<int> fixed_dofs_;

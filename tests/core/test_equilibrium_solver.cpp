@@ -610,6 +610,47 @@ TEST(EquilibriumSolver, ContinuationFollowsTheScheduleFromEquilibriumToEquilibri
   EXPECT_LT((q - final_q[1]).lpNorm<Eigen::Infinity>(), 1e-10);
 }
 
+// set_solution_factor_needed(false): the full step's trial skips the Hessian and convergence
+// is certified with the previous iterate's factor (equilibrium_solver.hpp). Same equilibria,
+// one factorisation fewer per converged solve, the tangent predictor still used.
+TEST(EquilibriumSolver, WithoutTheSolutionFactorConvergesWithOneFactorisationFewer) {
+  VerticalChain chain;
+  Eigen::VectorXd start = 1.02 * chain.network.rest_positions();
+  for (int i = 1; i <= VerticalChain::kSegments; ++i) start[3 * i] = 1e-3 * std::sin(i);
+  EquilibriumSolver exact(chain.network, ConstrainedDofs::node_dofs({0}));
+  EquilibriumSolver lazy(chain.network, ConstrainedDofs::node_dofs({0}));
+  lazy.set_solution_factor_needed(false);
+  Eigen::VectorXd q_exact = start, q_lazy = start;
+  const EquilibriumSummary a = exact.solve(&q_exact);
+  const EquilibriumSummary b = lazy.solve(&q_lazy);
+  ASSERT_TRUE(a.converged && b.converged) << a.message << " / " << b.message;
+  EXPECT_FALSE(a.decrement_from_previous_factor);
+  EXPECT_TRUE(b.decrement_from_previous_factor) << b.message;
+  EXPECT_EQ(b.newton_iterations, a.newton_iterations);
+  EXPECT_EQ(b.factorizations, a.factorizations - 1);
+  EXPECT_EQ(q_lazy, q_exact);  // the same iterate is returned
+  EXPECT_FALSE(lazy.has_solution_factorization());
+  EXPECT_THROW(lazy.factorization(), std::logic_error);
+
+  // Along a schedule: the same equilibria, the tangent predictor used as often, fewer factors.
+  PulledChain pulled;
+  int factorizations[2] = {0, 0}, extrapolations[2] = {0, 0};
+  Eigen::VectorXd final_q[2];
+  for (int k = 0; k < 2; ++k) {
+    EquilibriumSolver solver(pulled.network, pulled.ends());
+    solver.set_solution_factor_needed(k == 0);
+    Eigen::VectorXd q = pulled.start();
+    const ContinuationSummary summary = solver.solve_continuation(PulledChain::kSteps, &PulledChain::apply, &q);
+    ASSERT_TRUE(summary.completed) << summary.message;
+    for (const EquilibriumSummary& step : summary.steps) factorizations[k] += step.factorizations;
+    extrapolations[k] = summary.extrapolations_used;
+    final_q[k] = q;
+  }
+  EXPECT_LT(factorizations[1], factorizations[0]);
+  EXPECT_EQ(extrapolations[1], extrapolations[0]);
+  EXPECT_LT((final_q[0] - final_q[1]).lpNorm<Eigen::Infinity>(), 1e-10);
+}
+
 TEST(EquilibriumSolver, ContinuationStopsAtTheFirstFailedStep) {
   PulledChain chain;
   chain.network.set_gravity(Eigen::Vector3d::Zero());
