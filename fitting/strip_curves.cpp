@@ -36,6 +36,21 @@ std::optional<StripCurves::StrainField> StripCurves::anchor_strain_field(const T
   return StrainField{a->second.extensions.back(), a->second.strain_samples};
 }
 
+const StripCurves::KeptCurve* StripCurves::kept(const TensileTest* test, double angle_deg, int level,
+                                                bool angle_derivative, const MaterialParameters& params,
+                                                const std::vector<double>& extensions) const {
+  for (const KeptCurve& k : kept_) {
+    if (k.test != test || k.angle_deg != angle_deg || k.level != level || (angle_derivative && !k.angle_derivative) ||
+        !(k.params == params))
+      continue;
+    const bool covers = std::all_of(extensions.begin(), extensions.end(), [&](double e) {
+      return std::any_of(k.points.begin(), k.points.end(), [&](const TensilePoint& p) { return p.extension_mm == e; });
+    });
+    if (covers) return &k;
+  }
+  return nullptr;
+}
+
 std::vector<std::optional<StripCurves::Simulated>> StripCurves::simulate(const FitContext& context,
                                                                          const std::vector<Request>& requests,
                                                                          int level, bool angle_derivative) {
@@ -65,7 +80,15 @@ std::vector<std::optional<StripCurves::Simulated>> StripCurves::simulate(const F
   // simulate, the observable hooks added to each request's forces below.
   const auto effects = instantiate_effects(context.params, context.registry());
   const MaterialParameters adjusted = apply_law_hooks(effects, context.params);
+  std::vector<bool> answered(groups.size(), false);
+  if (!angle_derivative)  // an anchor needs the states, which kept curves drop
+    for (size_t i = 0; i < groups.size(); ++i)
+      if (const KeptCurve* k = kept(groups[i].test, groups[i].angle_deg, level, false, adjusted, groups[i].extensions)) {
+        groups[i].curve.points = k->points;
+        groups[i].curve.completed = answered[i] = true;
+      }
   tbb::parallel_for(size_t{0}, groups.size(), [&](size_t i) {
+    if (answered[i]) return;
     Group& g = groups[i];
     TensileSetup setup = context.setup_for(*g.test, level);
     setup.angle_deg = g.angle_deg;
@@ -76,6 +99,13 @@ std::vector<std::optional<StripCurves::Simulated>> StripCurves::simulate(const F
     if (angle_derivative && g.curve.completed && !g.curve.points.empty())
       g.strain_samples = experiment.material_strain_samples(g.curve.points.back().q);
   });
+  for (size_t i = 0; i < groups.size(); ++i) {
+    const Group& g = groups[i];
+    if (answered[i] || !g.curve.completed) continue;
+    KeptCurve k{g.test, g.angle_deg, level, angle_derivative, adjusted, g.curve.points};
+    for (TensilePoint& p : k.points) p.q = p.dq_dangle = Eigen::VectorXd(), p.dq_dk = Eigen::MatrixXd();
+    kept_.push_back(std::move(k));
+  }
   if (angle_derivative)
     for (Group& g : groups) {
       if (!g.curve.completed) continue;

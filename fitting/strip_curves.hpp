@@ -5,7 +5,9 @@
 // quasistatic equilibrium does not depend on the loading path); the distinct curves run in
 // parallel (TBB tasks, each with its own discretisation and solver; assembly inside nests in
 // the same scheduler). A request gets nullopt when its curve stopped before its largest
-// extension.
+// extension. Completed curves are kept: a later request on the same test, angle and level
+// with the same parameters covered by a kept curve is answered from it (an offset search
+// proposes an offset for one run that an earlier iteration simulated for another).
 #include <Eigen/Core>
 #include <map>
 #include <optional>
@@ -58,7 +60,22 @@ class StripCurves {
   TensileCurve run_anchored(TensileExperiment& experiment, const TensileTest& test,
                             const std::vector<double>& extensions) const;
 
+  /// A completed curve, with what it was simulated for (the reuse key and its coverage).
+  struct KeptCurve {
+    const TensileTest* test;
+    double angle_deg;
+    int level;
+    bool angle_derivative;
+    MaterialParameters params;
+    std::vector<TensilePoint> points;  ///< without states (anchors keep those)
+  };
+  /// The kept curve that answers `extensions` of `test` at `angle_deg` and `level` with
+  /// `params` (and dF/dθ when asked for), or nullptr.
+  const KeptCurve* kept(const TensileTest* test, double angle_deg, int level, bool angle_derivative,
+                        const MaterialParameters& params, const std::vector<double>& extensions) const;
+
   std::map<const TensileTest*, AngleAnchor> anchors_;
+  std::vector<KeptCurve> kept_;
 };
 
 }  // namespace twill
