@@ -98,12 +98,22 @@ bool TensilePredictor::predict(const MaterialParameters& k, const std::vector<in
   const bool anchored = warm_start_ && anchor_q_.size() == extensions_mm_.size() &&
                         anchor_k_.size() == k_flat.size();
   Eigen::VectorXd dk;
-  if (anchored) {
-    // First-order predictor q_i + ∂q_i/∂k Δk over the anchor's columns; entries outside them
-    // (none in a fit: the free set is fixed per stage) only make the guess less accurate.
+  // Entries outside the anchor's columns moved (none in a fit: the free set is fixed per stage).
+  // Then Δk over the columns is no path the anchor's ∂q/∂k knows: after the bend stage's
+  // thickness rescaling τ and every membrane stiffness change together (G12 by 29 % on
+  // canvas) while the planar strip's membrane τ·k does not, so q + ∂q/∂G12 ΔG12 is far off and
+  // the branch test, which extrapolates by the columns, sent the final bias curve back to a
+  // continuation (13.6 s instead of a warm re-evaluation). The guess is then the anchor's state
+  // itself and the branch test is skipped: a changed strip still converges from it, only
+  // slower.
+  const bool outside_moved = anchored && moved_outside_columns(k_flat);
+  if (anchored && !outside_moved) {
+    // First-order predictor q_i + ∂q_i/∂k Δk over the anchor's columns.
     dk.resize(static_cast<Eigen::Index>(anchor_flat_.size()));
     for (size_t j = 0; j < anchor_flat_.size(); ++j)
       dk[static_cast<Eigen::Index>(j)] = k_flat[anchor_flat_[j]] - anchor_k_[anchor_flat_[j]];
+  }
+  if (anchored) {
     std::vector<Eigen::VectorXd> guesses(anchor_q_.size());
     for (size_t i = 0; i < anchor_q_.size(); ++i) guesses[i] = first_order_guess(anchor_q_[i], anchor_dq_[i], dk);
     curve = experiment_.run_from(extensions_mm_, guesses);
@@ -114,7 +124,7 @@ bool TensilePredictor::predict(const MaterialParameters& k, const std::vector<in
       // along the loading schedule from the flat strip.
       for (const TensilePoint& p : curve.points) solves_ += 1 + p.solve.fallbacks;
       curve = experiment_.run(extensions_mm_);
-    } else if (left_the_anchors_branch(curve, force, dk)) {
+    } else if (!outside_moved && left_the_anchors_branch(curve, force, dk)) {
       for (const TensilePoint& p : curve.points) solves_ += 1 + p.solve.fallbacks;
       ++branch_retries_;
       curve = experiment_.run(extensions_mm_);
@@ -142,6 +152,13 @@ bool TensilePredictor::predict(const MaterialParameters& k, const std::vector<in
   }
   last_curve_ = std::move(curve);
   return true;
+}
+
+bool TensilePredictor::moved_outside_columns(const Eigen::VectorXd& k_flat) const {
+  for (Eigen::Index i = 0; i < k_flat.size(); ++i)
+    if (k_flat[i] != anchor_k_[i] && std::find(anchor_flat_.begin(), anchor_flat_.end(), i) == anchor_flat_.end())
+      return true;
+  return false;
 }
 
 bool TensilePredictor::left_the_anchors_branch(const TensileCurve& warm, bool force, const Eigen::VectorXd& dk) const {

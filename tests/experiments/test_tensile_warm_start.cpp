@@ -100,6 +100,58 @@ TEST(TensileWarmStart, FailedGuessIsRetriedFromThePreviousEquilibrium) {
   EXPECT_NE(failed.message.find("extension 1.0"), std::string::npos) << failed.message;
 }
 
+// Without derivatives run_from's points confirm convergence with the previous iterate's
+// factor (EquilibriumSolver::set_solution_factor_needed, docs/solver.md): a warm guess this
+// close takes one Newton step, and no second factorisation; with a sensitivity asked for,
+// the factor at the solution is kept. The forces are the same either way.
+TEST(TensileWarmStart, WithoutDerivativesPointsConvergeWithThePreviousFactor) {
+  const WarmStartCase c;
+  const TensileCurve lazy = c.warm(c.guesses, 2);
+  TensileExperiment exact_experiment(c.setup, c.factory, c.moved, tight_solver());
+  exact_experiment.set_sensitivity_parameters({c.moved.index_of("G12_Pa")});
+  const TensileCurve exact = exact_experiment.run_from(c.extensions_mm, c.guesses);
+  ASSERT_TRUE(lazy.completed && exact.completed) << lazy.message << exact.message;
+  int lazy_factors = 0, exact_factors = 0;
+  for (size_t i = 0; i < lazy.points.size(); ++i) {
+    EXPECT_TRUE(lazy.points[i].solve.decrement_from_previous_factor) << i << ": " << lazy.points[i].solve.message;
+    EXPECT_FALSE(exact.points[i].solve.decrement_from_previous_factor) << i;
+    EXPECT_NEAR(lazy.points[i].force_N, exact.points[i].force_N, kAgreement * exact.points[i].force_N) << i;
+    lazy_factors += lazy.points[i].solve.factorizations;
+    exact_factors += exact.points[i].solve.factorizations;
+  }
+  EXPECT_EQ(lazy_factors, exact_factors - static_cast<int>(lazy.points.size()));
+}
+
+// The bend stage rescales the thickness and every membrane stiffness together (τ·k fixed):
+// the planar strip's equilibria do not move, but G12 — a column of a bias anchor — changes
+// by the factor. The warm start must not extrapolate along that column (a wrong guess, then
+// a branch retry from the flat strip: 13.6 s instead of 2.0 s for canvas's final bias curve);
+// the anchor's states are the guesses, and the forces equal a fresh solve's.
+TEST(TensileWarmStart, AThicknessRescaleKeepsTheAnchorsStates) {
+  const WarmStartCase c;
+  const std::vector<int> flat = {c.anchor.index_of("G12_Pa"), c.anchor.index_of("eta4.alpha[0]")};
+  const Eigen::VectorXd measured = Eigen::VectorXd::Ones(static_cast<Eigen::Index>(c.extensions_mm.size()));
+  const auto predictor = [&] { return TensilePredictor("bias", c.setup, c.factory, c.anchor, c.extensions_mm, measured, tight_solver()); };
+  constexpr double kThicknessRatio = 0.8;
+  MaterialParameters rescaled = c.anchor;
+  rescaled.thickness_m *= kThicknessRatio;
+  for (double MaterialParameters::*stiffness :
+       {&MaterialParameters::a11_Pa, &MaterialParameters::a12_Pa, &MaterialParameters::a22_Pa, &MaterialParameters::G12_Pa})
+    rescaled.*stiffness /= kThicknessRatio;
+  Eigen::VectorXd anchored, warm_values, cold;
+  Eigen::MatrixXd jacobian;
+  std::string message;
+  TensilePredictor warm = predictor();
+  ASSERT_TRUE(warm.predict(c.anchor, flat, &anchored, &jacobian, &message)) << message;
+  const long anchor_solves = warm.equilibrium_solves();
+  ASSERT_TRUE(warm.predict(rescaled, {}, &warm_values, nullptr, &message)) << message;
+  EXPECT_EQ(warm.branch_retries(), 0);
+  EXPECT_EQ(warm.equilibrium_solves() - anchor_solves, static_cast<long>(c.extensions_mm.size()));  // no retry
+  TensilePredictor fresh = predictor();
+  ASSERT_TRUE(fresh.predict(rescaled, {}, &cold, nullptr, &message)) << message;
+  for (Eigen::Index i = 0; i < cold.size(); ++i) EXPECT_NEAR(warm_values[i], cold[i], kAgreement * std::abs(cold[i])) << i;
+}
+
 // TensilePredictor across evaluations (an optimiser's): a warm run that stays within the
 // anchor's first-order prediction is kept; one that leaves it by more than 5 % of the run's
 // largest force is solved again from the flat strip, so the value at k is the loading path's
