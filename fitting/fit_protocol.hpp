@@ -51,6 +51,7 @@ struct FitCurve {
   std::string run;    ///< run name, e.g. "warp-1"
   std::string role;   ///< "fit" or "validation"
   int degree = 0;     ///< degree of the stage's curve (0 for validation)
+  std::string resolution;  ///< fit runs: the level the final curve ran at, e.g. "16x24"
   double delta_theta_deg = 0;  ///< the strip's angle offset (validation; fit runs the misalignment effect-fit turned)
   double specimen_scale = 1;   ///< fit runs with `repeats.scale: per-run`: the run's s_r (forces are s_r p̂)
   double avg_rel_error = 0;    ///< Σ|p̂ − p̆| / Σ|p̆| (model.md §8)

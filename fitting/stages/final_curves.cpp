@@ -1,10 +1,16 @@
-// Stage `final-curves`: each fit run's curve at the final parameters and the finest level any
-// stage reached (the report's fit table, Figs. 2–3). A run whose stage ended at that level is
-// re-evaluated by its last predictor, warm-started from the states of its last evaluation (the
-// parameters changed at most by the bend stage's τ rescaling, which leaves the planar strip's
-// membrane unchanged, so the guesses are the equilibria); the others are simulated along their
-// schedules (StripCurves), in parallel with those.
+// Stage `final-curves`: each fit run's curve at the final parameters (the report's fit table,
+// Figs. 2–3), at the level its stage's last fit ran (`level: stage`; a stage the resolution
+// ladder settled has shown that a finer level changes its membrane response by less than the
+// ladder's tolerance, so simulating it there again costs a continuation per strip and tells
+// nothing the ladder did not) or at the finest level any stage reached (`level: finest`). A run
+// whose last predictor ran at its level is re-evaluated by it, warm-started from the states of
+// its last evaluation (the parameters changed at most by later stages: the bend stage's τ
+// rescaling leaves the planar strip's membrane unchanged, a finer bias refit moves G12 by a
+// fraction of a percent, so the guesses are at or next to the equilibria); the others are
+// simulated along their schedules (StripCurves), in parallel with those.
 #include <tbb/parallel_invoke.h>
+
+#include <map>
 
 #include "core/option_binding.hpp"
 #include "fitting/fit_context.hpp"
@@ -17,14 +23,18 @@ namespace {
 
 struct FinalCurvesOptions {
   bool warm_start = true;
+  std::string level = "stage";
   bool validate(std::string* error) const;
 };
 
 OptionBindings<FinalCurvesOptions> final_curves_bindings() {
   using S = FinalCurvesOptions;
   return {bool_option<S>("warm_start", &S::warm_start,
-                         "re-evaluate runs whose stage ended at the finest level from their last states "
-                         "(false: simulate every run along its schedule)")};
+                         "re-evaluate each run from the states of its stage's last fit when that ran at the "
+                         "run's level (false: simulate every run along its schedule)"),
+          choice_option<S>("level", &S::level, {"stage", "finest"},
+                           "where each run is simulated: the level its stage's last fit ran (a stage the "
+                           "resolution ladder settled stays there), or the finest level any stage reached")};
 }
 
 bool FinalCurvesOptions::validate(std::string* error) const {
@@ -37,7 +47,8 @@ class FinalCurves final : public FitStage {
   std::string title() const override { return "final curves"; }
 
   void run(FitContext& context, FitReport& out) override {
-    const std::vector<std::optional<Eigen::VectorXd>> forces = final_forces(context);
+    const std::vector<int> levels = run_levels(context);
+    const std::vector<std::optional<Eigen::VectorXd>> forces = final_forces(context, levels);
     for (size_t r = 0; r < context.fit_runs.size(); ++r) {
       const RunData& d = context.fit_runs[r];
       if (!forces[r]) {
@@ -47,6 +58,8 @@ class FinalCurves final : public FitStage {
       FitCurve c = FitContext::curve_record(d, "fit", d.specimen_scale * *forces[r]);
       c.delta_theta_deg = FitContext::strip_offset(d);
       c.specimen_scale = d.specimen_scale;
+      const TensileSetup setup = context.setup_for(*d.test, levels[r]);
+      c.resolution = FitContext::resolution_text(setup.cells_across, setup.cells_along);
       if (const CurveStage* stage = context.fitted_curve_at(d.test->angle_deg))
         c.degree = (context.params.*(stage->term->curve_member)).degree();
       out.fit.push_back(c);
@@ -54,24 +67,32 @@ class FinalCurves final : public FitStage {
   }
 
  private:
+  /// The level each fit run is simulated at (`level`).
+  std::vector<int> run_levels(const FitContext& context) const {
+    std::vector<int> levels;
+    for (const RunData& d : context.fit_runs) {
+      const auto last = context.last_predictor.find(&d);
+      const bool at_stage = options_.level == "stage" && last != context.last_predictor.end();
+      levels.push_back(at_stage ? last->second.first : context.finest_level);
+    }
+    return levels;
+  }
+
   /// Each fit run's forces at the final parameters (nullopt where no solve converged): warm
   /// predictors and simulated curves in parallel, then a failed warm start simulated after all.
-  std::vector<std::optional<Eigen::VectorXd>> final_forces(const FitContext& context) const {
+  std::vector<std::optional<Eigen::VectorXd>> final_forces(const FitContext& context,
+                                                           const std::vector<int>& levels) const {
     const size_t n = context.fit_runs.size();
-    std::vector<StripCurves::Request> requests, simulated_requests;
     std::vector<std::shared_ptr<Experiment>> warm(n);
+    std::vector<size_t> cold;
     for (size_t r = 0; r < n; ++r) {
-      const RunData& d = context.fit_runs[r];
-      requests.push_back({&d, FitContext::strip_angle(d)});
-      const auto last = context.last_predictor.find(&d);
-      if (options_.warm_start && last != context.last_predictor.end() && last->second.first == context.finest_level)
+      const auto last = context.last_predictor.find(&context.fit_runs[r]);
+      if (options_.warm_start && last != context.last_predictor.end() && last->second.first == levels[r])
         warm[r] = last->second.second;
       else
-        simulated_requests.push_back(requests.back());
+        cold.push_back(r);
     }
-    StripCurves curves;
     std::vector<std::optional<Eigen::VectorXd>> forces(n);
-    std::vector<std::optional<StripCurves::Simulated>> simulated;
     tbb::parallel_invoke(
         [&] {
           for (size_t r = 0; r < n; ++r) {
@@ -80,22 +101,27 @@ class FinalCurves final : public FitStage {
             if (warm[r] && warm[r]->predict(context.params, {}, &values, nullptr, &message)) forces[r] = values;
           }
         },
-        [&] { simulated = curves.simulate(context, simulated_requests, context.finest_level); });
+        [&] { simulate(context, levels, cold, &forces); });
     std::vector<size_t> retry;
-    for (size_t r = 0, k = 0; r < n; ++r) {
-      if (!warm[r]) {
-        if (simulated[k]) forces[r] = simulated[k]->force_N;
-        ++k;
-      } else if (!forces[r]) {
-        retry.push_back(r);
-      }
-    }
-    std::vector<StripCurves::Request> retry_requests;
-    for (size_t r : retry) retry_requests.push_back(requests[r]);
-    const auto retried = curves.simulate(context, retry_requests, context.finest_level);
-    for (size_t i = 0; i < retry.size(); ++i)
-      if (retried[i]) forces[retry[i]] = retried[i]->force_N;
+    for (size_t r = 0; r < n; ++r)
+      if (warm[r] && !forces[r]) retry.push_back(r);
+    simulate(context, levels, retry, &forces);
     return forces;
+  }
+
+  /// Simulates the runs `which` along their schedules, each at its level (StripCurves).
+  static void simulate(const FitContext& context, const std::vector<int>& levels, const std::vector<size_t>& which,
+                       std::vector<std::optional<Eigen::VectorXd>>* forces) {
+    std::map<int, std::vector<size_t>> by_level;
+    for (size_t r : which) by_level[levels[r]].push_back(r);
+    StripCurves curves;
+    for (const auto& [level, runs] : by_level) {
+      std::vector<StripCurves::Request> requests;
+      for (size_t r : runs) requests.push_back({&context.fit_runs[r], FitContext::strip_angle(context.fit_runs[r])});
+      const auto simulated = curves.simulate(context, requests, level);
+      for (size_t i = 0; i < runs.size(); ++i)
+        if (simulated[i]) (*forces)[runs[i]] = simulated[i]->force_N;
+    }
   }
 
   FinalCurvesOptions options_;

@@ -11,6 +11,8 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <map>
+#include <set>
 
 #include "core/dataset.hpp"
 #include "core/discretization_registry.hpp"
@@ -169,6 +171,44 @@ TEST(FitProtocol, LadderSkipsTheFinerLevelsOfASettledStage) {
   }
   EXPECT_EQ(report.finest_resolution, "4x6");
   for (const auto& [stage, seconds] : report.timing_s) EXPECT_EQ(stage.find("level 2"), std::string::npos) << stage;
+}
+
+// Final curves (docs/fitting.md §6 item 5): each run at the level its stage ended — a stage the
+// ladder settled at 4×6 stays there while a refined one reaches 8×12 — or, with `level:
+// finest`, every run at the finest level. The tolerance is put between the stages' first
+// changes so that the ladder splits them.
+TEST(FitProtocol, FinalCurvesRunWhereEachStageEnded) {
+  const Dataset dataset = read_dataset(std::string(TWILL_SOURCE_DIR) + "/examples/canvas");
+  const FitReport probe = run_fit(dataset, tiny_ladder_config("0", "2"), registry(), {});
+  ASSERT_EQ(probe.refinement.size(), 6u);
+  double low = 1, high = 0;
+  for (size_t i = 0; i < 3; ++i) {
+    low = std::min(low, probe.refinement[i].response_change);
+    high = std::max(high, probe.refinement[i].response_change);
+  }
+  ASSERT_LT(1.5 * low, high) << "the stages' first changes are too close to split";
+  const std::string tolerance = std::to_string(std::sqrt(low * high));
+  for (const std::string level : {"stage", "finest"}) {
+    Options config = tiny_ladder_config(tolerance, "2");
+    const std::vector<ComponentChoice> protocol = config.get_component_list("protocol");
+    const auto final_curves = std::find_if(protocol.begin(), protocol.end(),
+                                           [](const ComponentChoice& c) { return c.name == "final-curves"; });
+    ASSERT_NE(final_curves, protocol.end());
+    apply_override(config, fit_config_schema(), &registry(),
+                   "protocol[" + std::to_string(final_curves - protocol.begin()) + "].level=" + level);
+    const FitReport report = run_fit(dataset, config, registry(), {});
+    EXPECT_EQ(report.finest_resolution, "8x12");
+    std::map<std::string, std::string> ended;  // stage label → its last refinement's level
+    for (const FitRefinement& r : report.refinement) ended[r.stage] = r.to_resolution;
+    ASSERT_EQ(ended.size(), 3u);
+    std::set<std::string> levels;
+    for (const FitCurve& c : report.fit) {
+      EXPECT_EQ(c.resolution, level == "finest" ? "8x12" : ended.at(c.label)) << c.run << ", level " << level;
+      EXPECT_EQ(c.simulated_N.size(), c.measured_N.size());
+      levels.insert(c.resolution);
+    }
+    EXPECT_EQ(levels.size(), level == "finest" ? 1u : 2u) << level;
+  }
 }
 
 TEST(FitProtocol, LinearisedL1StepIsTheExactMinimiser) {
