@@ -130,7 +130,7 @@ class FinalCurves final : public FitStage {
 }  // namespace
 
 void register_final_curves_stage(FitStageFactories& stages) {
-  stages.add_bound<FinalCurves>("final-curves", "every fit run simulated at the final parameters, finest level",
+  stages.add_bound<FinalCurves>("final-curves", "every fit run simulated at the final parameters, at its stage's level or the finest",
                                 final_curves_bindings());
 }
 
