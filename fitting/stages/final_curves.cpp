@@ -21,9 +21,13 @@
 namespace twill {
 namespace {
 
+// The values of `level`.
+constexpr const char* kAtStageLevel = "stage";
+constexpr const char* kAtFinestLevel = "finest";
+
 struct FinalCurvesOptions {
   bool warm_start = true;
-  std::string level = "stage";
+  std::string level = kAtStageLevel;
   bool validate(std::string* error) const;
 };
 
@@ -32,7 +36,7 @@ OptionBindings<FinalCurvesOptions> final_curves_bindings() {
   return {bool_option<S>("warm_start", &S::warm_start,
                          "re-evaluate each run from the states of its stage's last fit when that ran at the "
                          "run's level (false: simulate every run along its schedule)"),
-          choice_option<S>("level", &S::level, {"stage", "finest"},
+          choice_option<S>("level", &S::level, {kAtStageLevel, kAtFinestLevel},
                            "where each run is simulated: the level its stage's last fit ran (a stage the "
                            "resolution ladder settled stays there), or the finest level any stage reached")};
 }
@@ -72,7 +76,7 @@ class FinalCurves final : public FitStage {
     std::vector<int> levels;
     for (const RunData& d : context.fit_runs) {
       const auto last = context.last_predictor.find(&d);
-      const bool at_stage = options_.level == "stage" && last != context.last_predictor.end();
+      const bool at_stage = options_.level == kAtStageLevel && last != context.last_predictor.end();
       levels.push_back(at_stage ? last->second.first : context.finest_level);
     }
     return levels;
