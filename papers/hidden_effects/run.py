@@ -3,7 +3,8 @@
 effect hidden by synthesize.py's own law and its twin with no effect (same seed: the same
 specimens, offsets and noise), each fitted by `twill fit --set 'effects=[E]'`.
 
-    run.py TWILL OUTDIR [--effects hysteresis rate-dependence] [--seeds 1 2 3] [--set KEY=VALUE ...]
+    run.py TWILL OUTDIR [--effects hysteresis rate-dependence] [--seeds 1 2 3] [--variant V]
+           [--set KEY=VALUE ...]
 
 Per (effect, seed) it reads the effect-fit stage's row of report.json:
   error_without  the paper's model fitted (its curves fitted on the loading branches), over
@@ -13,7 +14,11 @@ Per (effect, seed) it reads the effect-fit stage's row of report.json:
                  the generator's scatter, offsets and noise alone (the noise floor);
   null_with      error_with on the twin: the effect must not buy much where there is none;
 and the fitted parameters against the generator's, scaled by the mean specimen scale of the
-runs the fit used (truth.yaml's `runs`). Writes OUTDIR/summary.md and summary.json.
+runs the fit used (truth.yaml's `runs`). With --variant V the spec is E-V.yaml (e.g.
+misalignment-validation.yaml: the paper's validation strips added). Where the data have
+validation strips, their rows add, hidden and twin: the validation error at the nominal angles
+and with the searched offsets (means over the strips), and the offsets against those drawn
+(RMS drawn, RMS found, worst |found − drawn|). Writes OUTDIR/summary.md and summary.json.
 """
 import argparse
 import json
@@ -60,10 +65,26 @@ def bending_stiffness_recovery(data_dir, fit_dir, fitted):
 
 
 def drawn_spread(truth, report):
-    """RMS of the offsets drawn for the strips the fit used."""
-    used = {c["run"] for c in report["fit"]}
+    """RMS of the offsets drawn for the strips the fit used (fit and validation runs)."""
+    used = {c["run"] for c in report["fit"] + report.get("validation", [])}
     offsets = [r["offset_deg"] for r in truth["runs"] if os.path.splitext(os.path.basename(r["run"]))[0] in used]
     return (sum(o * o for o in offsets) / len(offsets)) ** 0.5 if offsets else float("nan")
+
+
+def validation_recovery(truth, report):
+    """The validation strips: mean errors at the nominal angle and with the found offsets, and
+    the found offsets against the drawn ones; None without validation strips."""
+    runs = report.get("validation", [])
+    if not runs:
+        return None
+    drawn = {os.path.splitext(os.path.basename(r["run"]))[0]: r["offset_deg"] for r in truth["runs"]}
+    pairs = [(c["delta_theta_deg"], drawn[c["run"]]) for c in runs]
+    rms = lambda values: (sum(v * v for v in values) / len(values)) ** 0.5
+    return {"strips": len(runs),
+            "error_nominal": sum(c["avg_rel_error_without_offset"] for c in runs) / len(runs),
+            "error_with": sum(c["avg_rel_error"] for c in runs) / len(runs),
+            "rms_drawn": rms([d for _, d in pairs]), "rms_found": rms([f for f, _ in pairs]),
+            "worst_miss": max(abs(f - d) for f, d in pairs)}
 
 
 def run(cmd, log):
@@ -112,17 +133,19 @@ def main():
     parser.add_argument("out")
     parser.add_argument("--effects", nargs="+", default=["hysteresis", "rate-dependence"])
     parser.add_argument("--seeds", nargs="+", type=int, default=[1, 2, 3])
+    parser.add_argument("--variant", default=None, help="fit the spec E-VARIANT.yaml instead of E.yaml")
     parser.add_argument("--set", nargs="*", default=["resolution.levels=1"], dest="overrides")
     args = parser.parse_args()
     os.makedirs(args.out, exist_ok=True)
     rows = []
     for effect in args.effects:
         for seed in args.seeds:
-            row = {"effect": effect, "seed": seed}
+            stem = f"{effect}-{args.variant}" if args.variant else effect
+            row = {"effect": stem, "seed": seed}
             for hidden in (True, False):
-                tag = f"{effect}-{seed}-{'hidden' if hidden else 'none'}"
+                tag = f"{stem}-{seed}-{'hidden' if hidden else 'none'}"
                 spec = os.path.join(args.out, tag + ".spec.yaml")
-                twin_spec(os.path.join(HERE, f"{effect}.yaml"), spec, hidden)
+                twin_spec(os.path.join(HERE, f"{stem}.yaml"), spec, hidden)
                 data, fit = os.path.join(args.out, tag), os.path.join(args.out, tag + "-fit")
                 if not os.path.exists(os.path.join(fit, "report.json")):
                     ok = run([sys.executable, os.path.join(HERE, "synthesize.py"), spec, "-o", data, "--twill",
@@ -133,6 +156,15 @@ def main():
                     if not (ok and run(cmd, fit + ".log")):
                         continue
                 e, report = effect_row(os.path.join(fit, "report.json"))
+                with open(os.path.join(data, "truth.yaml")) as f:
+                    validation = validation_recovery(yaml.safe_load(f), report)
+                if validation:
+                    # The spread params.yaml carries: after the validation stage, the RMS over the
+                    # validation and fit-run offsets (the effect-fit row has the fit runs' alone).
+                    with open(os.path.join(fit, "params.yaml")) as f:
+                        final = yaml.safe_load(f).get("effects", {}).get(effect, {})
+                    validation["spread_final"] = final.get("spread_deg")
+                    row["validation" if hidden else "null_validation"] = validation
                 if hidden:
                     row.update(error_without=e["error_without"], error_with=e["error_with"],
                                parameters={p["name"]: p["value"] for p in e["parameters"]})
@@ -155,10 +187,17 @@ def main():
     def line(r):
         rec = ", ".join(f"{k.split('.')[-1]} {100 * v['relative']:+.1f} %" for k, v in r.get("recovery", {}).items())
         pct = lambda k: f"{100 * r[k]:.2f} %" if k in r else "—"
-        return [r["effect"], r["seed"], pct("error_without"), pct("error_with"), pct("floor"), pct("null_with"), rec]
+        def strips(key):
+            v = r.get(key)
+            spread = f", spread in params.yaml {v['spread_final']:.2f}°" if v and v.get("spread_final") is not None else ""
+            return (f"{100 * v['error_nominal']:.2f} → {100 * v['error_with']:.2f} %, offsets RMS {v['rms_found']:.2f}° "
+                    f"(drawn {v['rms_drawn']:.2f}°), worst miss {v['worst_miss']:.2f}°{spread}") if v else "—"
+        return [r["effect"], r["seed"], pct("error_without"), pct("error_with"), pct("floor"), pct("null_with"), rec,
+                strips("validation"), strips("null_validation")]
 
     write_summary(os.path.join(args.out, "summary"), rows,
-                  ["effect", "seed", "error without", "error with", "floor", "with, on the twin", "recovery"], line)
+                  ["effect", "seed", "error without", "error with", "floor", "with, on the twin", "recovery",
+                   "validation strips: nominal → with offsets", "the same on the twin"], line)
 
 
 if __name__ == "__main__":
