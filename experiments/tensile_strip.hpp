@@ -153,9 +153,6 @@ class TensileExperiment {
   TensileSetup setup_;
   DiscretizationFactory factory_;
   std::unique_ptr<Discretization> discretization_;
-  /// Tells `solver` whether measure() will need its factor at the solution (derivatives);
-  /// returns it. For run_from's independent points only (run() keeps the factor: its comment).
-  EquilibriumSolver& use_solution_factor(EquilibriumSolver& solver) const;
   std::unique_ptr<Discretization> angle_plus_, angle_minus_;  ///< at θ ± kAngleStepDeg
   std::vector<int> moving_nodes_;
   std::vector<int> fixed_dofs_;
@@ -164,6 +161,9 @@ class TensileExperiment {
   /// Solvers of run_from's further chunks (created on first use, kept for their patterns).
   std::vector<std::unique_ptr<EquilibriumSolver>> chunk_solvers_;
   EquilibriumSolver& chunk_solver(size_t chunk);
+  /// Tells `solver` whether measure() will need its factor at the solution (derivatives);
+  /// returns it. For run_from's independent points only (run() keeps the factor: its comment).
+  EquilibriumSolver& use_solution_factor(EquilibriumSolver& solver) const;
   std::vector<int> sensitivity_parameters_;
   bool keep_states_ = false;
   /// dF/dθ and dq/dθ at the converged point q (set_angle_sensitivity) into p.

@@ -84,8 +84,12 @@ OffsetSearch::ForceModel OffsetSearch::force_model(const std::vector<Sample>& sa
   return m;
 }
 
+double OffsetSearch::scale(const Eigen::VectorXd& forces, const Eigen::VectorXd& measured, bool free_scale) {
+  return free_scale ? linearised_l1_minimiser(Eigen::VectorXd::Zero(forces.size()), forces, measured) : 1.0;
+}
+
 double OffsetSearch::misfit(const Eigen::VectorXd& forces, const Eigen::VectorXd& measured, bool free_scale) {
-  const double s = free_scale ? linearised_l1_minimiser(Eigen::VectorXd::Zero(forces.size()), forces, measured) : 1.0;
+  const double s = scale(forces, measured, free_scale);
   return (s * forces - measured).cwiseAbs().sum();
 }
 
@@ -114,8 +118,7 @@ double OffsetSearch::next_offset(const RunData& d, const std::vector<Sample>& sa
   if (samples.size() == 1) {  // the probe: the linearised step, or ±kProbeDeg
     const Sample& nominal = samples.front();
     Eigen::VectorXd target = d.unscaled_force_N();
-    if (options_.free_scale)  // the measured forces in the nominal strip's best scale
-      target /= linearised_l1_minimiser(Eigen::VectorXd::Zero(target.size()), nominal.simulated.force_N, target);
+    target /= scale(nominal.simulated.force_N, target, options_.free_scale);  // in the nominal strip's best scale
     const double step = linearised_l1_minimiser(nominal.simulated.force_N, nominal.simulated.dforce_dangle, target);
     const double probe = std::min(kProbeDeg, max);
     const double rounded = on_grid(step);

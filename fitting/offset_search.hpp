@@ -94,6 +94,8 @@ class OffsetSearch {
   /// The L1 misfit Σ|s F − F̆| of forces F against measured F̆, with s = 1 or, for a free
   /// scale, its minimiser (the weighted median of F̆/F with weights |F|).
   static double misfit(const Eigen::VectorXd& forces, const Eigen::VectorXd& measured, bool free_scale);
+  /// The s of misfit(): 1, or for a free scale the weighted median of F̆/F (the L1-best).
+  static double scale(const Eigen::VectorXd& forces, const Eigen::VectorXd& measured, bool free_scale);
   /// The strips simulated so far (their nominal angles are anchors with their strain range).
   const StripCurves& curves() const { return curves_; }
 

@@ -37,12 +37,10 @@ std::optional<StripCurves::StrainField> StripCurves::anchor_strain_field(const T
 }
 
 const StripCurves::KeptCurve* StripCurves::kept(const TensileTest* test, double angle_deg, int level,
-                                                bool angle_derivative, const MaterialParameters& params,
+                                                const MaterialParameters& params,
                                                 const std::vector<double>& extensions) const {
   for (const KeptCurve& k : kept_) {
-    if (k.test != test || k.angle_deg != angle_deg || k.level != level || (angle_derivative && !k.angle_derivative) ||
-        !(k.params == params))
-      continue;
+    if (k.test != test || k.angle_deg != angle_deg || k.level != level || !(k.params == params)) continue;
     const bool covers = std::all_of(extensions.begin(), extensions.end(), [&](double e) {
       return std::any_of(k.points.begin(), k.points.end(), [&](const TensilePoint& p) { return p.extension_mm == e; });
     });
@@ -83,7 +81,7 @@ std::vector<std::optional<StripCurves::Simulated>> StripCurves::simulate(const F
   std::vector<bool> answered(groups.size(), false);
   if (!angle_derivative)  // an anchor needs the states, which kept curves drop
     for (size_t i = 0; i < groups.size(); ++i)
-      if (const KeptCurve* k = kept(groups[i].test, groups[i].angle_deg, level, false, adjusted, groups[i].extensions)) {
+      if (const KeptCurve* k = kept(groups[i].test, groups[i].angle_deg, level, adjusted, groups[i].extensions)) {
         groups[i].curve.points = k->points;
         groups[i].curve.completed = answered[i] = true;
       }
@@ -99,13 +97,6 @@ std::vector<std::optional<StripCurves::Simulated>> StripCurves::simulate(const F
     if (angle_derivative && g.curve.completed && !g.curve.points.empty())
       g.strain_samples = experiment.material_strain_samples(g.curve.points.back().q);
   });
-  for (size_t i = 0; i < groups.size(); ++i) {
-    const Group& g = groups[i];
-    if (answered[i] || !g.curve.completed) continue;
-    KeptCurve k{g.test, g.angle_deg, level, angle_derivative, adjusted, g.curve.points};
-    for (TensilePoint& p : k.points) p.q = p.dq_dangle = Eigen::VectorXd(), p.dq_dk = Eigen::MatrixXd();
-    kept_.push_back(std::move(k));
-  }
   if (angle_derivative)
     for (Group& g : groups) {
       if (!g.curve.completed) continue;
@@ -116,6 +107,10 @@ std::vector<std::optional<StripCurves::Simulated>> StripCurves::simulate(const F
         a.dq_dangle.push_back(std::move(p.dq_dangle));
       }
     }
+  // Kept after the anchors took the states out (the strips compute no parameter derivatives).
+  for (size_t i = 0; i < groups.size(); ++i)
+    if (!answered[i] && groups[i].curve.completed)
+      kept_.push_back({groups[i].test, groups[i].angle_deg, level, adjusted, groups[i].curve.points});
   std::vector<std::optional<Simulated>> out(requests.size());
   for (size_t r = 0; r < requests.size(); ++r) {
     const std::vector<TensilePoint>& points = groups[group_of[r]].curve.points;

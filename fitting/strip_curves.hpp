@@ -65,14 +65,13 @@ class StripCurves {
     const TensileTest* test;
     double angle_deg;
     int level;
-    bool angle_derivative;
     MaterialParameters params;
     std::vector<TensilePoint> points;  ///< without states (anchors keep those)
   };
   /// The kept curve that answers `extensions` of `test` at `angle_deg` and `level` with
-  /// `params` (and dF/dθ when asked for), or nullptr.
-  const KeptCurve* kept(const TensileTest* test, double angle_deg, int level, bool angle_derivative,
-                        const MaterialParameters& params, const std::vector<double>& extensions) const;
+  /// `params`, or nullptr.
+  const KeptCurve* kept(const TensileTest* test, double angle_deg, int level, const MaterialParameters& params,
+                        const std::vector<double>& extensions) const;
 
   std::map<const TensileTest*, AngleAnchor> anchors_;
   std::vector<KeptCurve> kept_;

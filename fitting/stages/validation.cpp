@@ -104,10 +104,7 @@ class Validation final : public FitStage {
     }
     const OffsetSearch::Sample& best = *OffsetSearch::best(samples);
     // With a free scale the curve is recorded at its best scale, where the search judged it.
-    const Eigen::VectorXd measured = d.unscaled_force_N();
-    const double scale = free_scale ? linearised_l1_minimiser(Eigen::VectorXd::Zero(measured.size()),
-                                                              best.simulated.force_N, measured)
-                                    : 1.0;
+    const double scale = OffsetSearch::scale(best.simulated.force_N, d.unscaled_force_N(), free_scale);
     FitCurve c = FitContext::curve_record(d, "validation", scale * best.simulated.force_N);
     c.specimen_scale = scale;
     c.delta_theta_deg = best.offset_deg;
