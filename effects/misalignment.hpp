@@ -12,7 +12,9 @@
 // Hook: the experiment's set-up, θ ← θ0 + Δθ, so d(angle_deg)/d(offset_deg) = 1 and the
 //   observables' derivative in Δθ is the experiment's dF/dθ (Eq. 6, tensile_strip.hpp).
 // Data: repeats at some tensile angle (a spread needs at least two strips cut alike).
-// Estimate from runs: spread = √(mean Δθ²) over the runs' fitted offsets.
+// Estimate from runs: spread = √(mean Δθ²) over the runs' fitted offsets (which runs:
+//   fitting/fit_effects.cpp, docs/effects/misalignment.md "Which offsets the spread is
+//   estimated from").
 #include "core/option_binding.hpp"
 #include "effects/effect.hpp"
 

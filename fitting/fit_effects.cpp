@@ -33,23 +33,48 @@ void check_effects_data(const Dataset& dataset, const FitConfig& config, const R
   }
 }
 
+namespace {
+
+// A spread needs at least two strips cut alike (Misalignment::missing_data asks the same of the
+// fit runs): with fewer validation strips their offsets are pooled with the fit runs'.
+constexpr size_t kValidationStripsForASpread = 2;
+
+// The offsets an angle-offset effect's model parameters are estimated from
+// (docs/effects/misalignment.md, "Which offsets the spread is estimated from"): the validation
+// strips' alone when there are enough of them — off the material axes a cut moves the force to
+// first order and each strip's offset is its own — else those and the fit runs' (where the
+// misalignment effect-fit turned them: nearly even in Δθ and put in a gauge, weak evidence).
+std::vector<Eigen::VectorXd> spread_evidence(FitContext& context, const std::string& effect,
+                                             const std::vector<FitCurve>& validation) {
+  std::vector<Eigen::VectorXd> offsets;
+  for (const FitCurve& c : validation) offsets.push_back(Eigen::VectorXd::Constant(1, c.delta_theta_deg));
+  if (validation.size() >= kValidationStripsForASpread) {
+    context.note("effect " + effect + ": estimated from the " + std::to_string(validation.size()) +
+                 " validation offsets alone (fit-run offsets are second order in the forces near an axis "
+                 "and relative to their test's gauge)");
+    return offsets;
+  }
+  int turned_fit_runs = 0;
+  for (const RunData& d : context.fit_runs)
+    if (d.strip_angle_deg) {
+      offsets.push_back(Eigen::VectorXd::Constant(1, FitContext::strip_offset(d)));
+      ++turned_fit_runs;
+    }
+  context.note("effect " + effect + ": estimated from the " + std::to_string(validation.size()) +
+               " validation offsets and " + std::to_string(turned_fit_runs) +
+               " fit-run offsets (misalignment effect-fit)");
+  return offsets;
+}
+
+}  // namespace
+
 std::vector<ComponentChoice> estimate_effects(FitContext& context, const std::vector<FitCurve>& validation) {
   std::vector<ComponentChoice> fitted_effects;
   for (size_t i = 0; i < context.effects.size(); ++i) {
     ComponentChoice fitted = context.params.effects.at(i);  // as the effect-fit stages left it
     if (is_angle_offset(*context.effects[i]) && !validation.empty()) {
-      std::vector<Eigen::VectorXd> offsets;
-      for (const FitCurve& c : validation) offsets.push_back(Eigen::VectorXd::Constant(1, c.delta_theta_deg));
-      int turned_fit_runs = 0;
-      for (const RunData& d : context.fit_runs)
-        if (d.strip_angle_deg) {
-          offsets.push_back(Eigen::VectorXd::Constant(1, FitContext::strip_offset(d)));
-          ++turned_fit_runs;
-        }
-      fitted.options = context.effects[i]->estimated_from_runs(offsets, fitted.options);
-      context.note("effect " + fitted.name + ": estimated from the " + std::to_string(validation.size()) +
-                   " validation offsets and " + std::to_string(turned_fit_runs) +
-                   " fit-run offsets (misalignment effect-fit)");
+      fitted.options = context.effects[i]->estimated_from_runs(spread_evidence(context, fitted.name, validation),
+                                                               fitted.options);
     } else {
       context.note("effect " + fitted.name + ": parameters " +
                    (fitted == context.config().effects[i] ? "as configured (no stage fitted them)"

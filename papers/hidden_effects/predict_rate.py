@@ -3,11 +3,13 @@
 from a fit on the other").
 
     predict_rate.py TWILL OUTDIR [--seeds 1 2 3] [--fit-rate 300] [--resolution 8x12]
+                    [--set KEY=VALUE ...]
 
 For each seed: the rate-dependence spec's dataset with the effect hidden and its twin without
 (synthesize.py, as run.py makes them; reused when OUTDIR has them), cut to the tests at
 --fit-rate (loading and unloading), each fitted by `twill fit --set 'effects=[rate-dependence]'
---set resolution.levels=1`. Every run at the other rate — specimens the fit never saw, at a
+--set resolution.levels=1` and any --set given (e.g. `repeats.rule=all repeats.scale=per-run`:
+every specimen at the fit rate, each with its own scale). Every run at the other rate — specimens the fit never saw, at a
 speed it never saw — is then simulated from the fit's params.yaml with its effects (at that
 run's rate) and without them, and compared with its measured rows (average relative error,
 model.md §8), as it is and after each run's own best scale (scaled_error: the specimen's 10–20 %
@@ -88,6 +90,7 @@ def main():
     parser.add_argument("--seeds", nargs="+", type=int, default=[1, 2, 3])
     parser.add_argument("--fit-rate", type=float, default=300)
     parser.add_argument("--resolution", default="8x12")
+    parser.add_argument("--set", nargs="*", default=[], dest="overrides", help="more `twill fit --set` overrides")
     args = parser.parse_args()
     twill = os.path.abspath(args.twill)
     os.makedirs(args.out, exist_ok=True)
@@ -102,8 +105,11 @@ def main():
             fit = cut + "-fit"
             if not os.path.exists(os.path.join(fit, "report.json")):
                 subset(data, args.fit_rate, cut)
-                if not run([twill, "fit", cut, "-o", fit, "--quiet", "--set", "effects=[rate-dependence]", "--set",
-                            "resolution.levels=1"], fit + ".log"):
+                cmd = [twill, "fit", cut, "-o", fit, "--quiet", "--set", "effects=[rate-dependence]", "--set",
+                       "resolution.levels=1"]
+                for o in args.overrides:
+                    cmd += ["--set", o]
+                if not run(cmd, fit + ".log"):
                     continue
             with open(os.path.join(fit, "report.json")) as f:
                 effect = json.load(f)["effects"][0]
