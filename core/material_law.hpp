@@ -1,19 +1,21 @@
 #pragma once
 // The orthotropic hyperelastic law of Clyde, Teran & Tamstorf 2017 (paper Eq. 2, §3.1–3.2;
-// docs/model.md §2–4; derivation in docs/derivations.md §1).
+// docs/model.md §2–4; derivation in docs/material_law.md).
 //
-//   ψ(Ẽ; k) = a11/2 η1(Ẽ11²) + a12 Ẽ11Ẽ22 + a22/2 η3(Ẽ22²) + G12 η4(Ẽ12²)     [Pa = J/m³]
+//   ψ(Ẽ; k) = a11/2 η1(Ẽ11²) + a12 η2(Ẽ11Ẽ22) + a22/2 η3(Ẽ22²) + G12 η4(Ẽ12²)   [Pa = J/m³]
 //
-// with η2(x) = x (paper §5.2). The orthotropic strain is passed as the 3-vector
+// The paper keeps η2(x) = x (§5.2), the default (Curve::linear()); the poisson effect frees
+// its curvature (docs/effects/poisson.md). The orthotropic strain is passed as the 3-vector
 // e = (Ẽ11, Ẽ22, Ẽ12): warp stretch, weft stretch, and the *tensor* shear component
 // Ẽ12 = d1·E·d2 (not the engineering shear 2Ẽ12).
 //
-// Structure used throughout: ψ = F1(e1) + F3(e2) + F4(e3) + a12·e1·e2 is a sum of univariate
-// terms plus a bilinear term. The extrapolation of §3.2 (second-order Taylor expansion about
-// the nearest point of the validity box) therefore acts on each univariate term separately:
-// outside [min_i, max_i], F_i is replaced by its quadratic Taylor polynomial at the violated
-// bound, and the bilinear term is its own Taylor polynomial. Value, gradient and Hessian are
-// continuous across the box (C²), which Newton and the sensitivities need.
+// Structure used throughout: ψ = F1(e1) + F3(e2) + F4(e3) + C(u), u = e1 e2, is a sum of
+// univariate terms in e1, e2, e3 and u. The extrapolation of §3.2 (second-order Taylor
+// expansion about the nearest point of the validity box) therefore acts on each term
+// separately: outside [min_i, max_i], F_i is replaced by its quadratic Taylor polynomial at the
+// violated bound, and η2 outside u's interval over the box by its own — for η2(x) = x the
+// bilinear C is its own Taylor polynomial. Value, gradient and Hessian are continuous across
+// the box (C²), which Newton and the sensitivities need. docs/material_law.md §3a.
 #include <Eigen/Core>
 
 #include "core/bending_scale.hpp"

@@ -47,7 +47,8 @@ FlatLayout::FlatLayout(const MaterialParameters& p) {
   eta1 = kFirstCurve;
   eta3 = eta1 + 2 * p.eta1.degree() - 1;
   eta4 = eta3 + 2 * p.eta3.degree() - 1;
-  bending = eta4 + 2 * p.eta4.degree() - 1;
+  eta2 = eta4 + 2 * p.eta4.degree() - 1;
+  bending = eta2 + 2 * p.eta2.degree() - 1;
   effects = bending + kBendingRatios;
   size = effects + count_effect_parameters(p.effects);
 }
@@ -66,6 +67,7 @@ Eigen::VectorXd MaterialParameters::to_flat() const {
   append_curve_flat(eta1, flat, at);
   append_curve_flat(eta3, flat, at);
   append_curve_flat(eta4, flat, at);
+  append_curve_flat(eta2, flat, at);
   flat[at++] = bending_warp_ratio;
   flat[at++] = bending_weft_ratio;
   for_each_effect_parameter(effects, [&](const std::string&, const ComponentChoice& effect, const std::string& key) {
@@ -90,6 +92,7 @@ void MaterialParameters::set_from_flat(const Eigen::VectorXd& flat) {
   read_curve_flat(eta1, flat, at);
   read_curve_flat(eta3, flat, at);
   read_curve_flat(eta4, flat, at);
+  read_curve_flat(eta2, flat, at);
   bending_warp_ratio = flat[at++];
   bending_weft_ratio = flat[at++];
   for (ComponentChoice& effect : effects)
@@ -103,6 +106,7 @@ std::vector<std::string> MaterialParameters::parameter_names() const {
   append_curve_names("eta1", eta1, names);
   append_curve_names("eta3", eta3, names);
   append_curve_names("eta4", eta4, names);
+  append_curve_names("eta2", eta2, names);
   names.insert(names.end(), {kBendingWarpRatioName, kBendingWeftRatioName});
   for_each_effect_parameter(effects, [&names](const std::string& name, const ComponentChoice&, const std::string&) {
     names.push_back(name);

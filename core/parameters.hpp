@@ -9,7 +9,7 @@
 //
 //   0 density_kg_m2   1 thickness_m
 //   2 a11_Pa          3 a12_Pa          4 a22_Pa          5 G12_Pa
-//   then for each curve c in (eta1, eta3, eta4), degree d:
+//   then for each curve c in (eta1, eta3, eta4, eta2), degree d:
 //     c.mu[1] … c.mu[d-1]      (d − 1 entries; mu[0] = 1 − Σ_{i≥1} mu[i] is *dependent*)
 //     c.alpha[0] … c.alpha[d-1] (d entries)
 //   then the two law-side bending ratios "bending.warp_ratio", "bending.weft_ratio" (b_w, b_f:
@@ -73,6 +73,9 @@ struct MaterialParameters {
   Curve eta1 = Curve::linear();  ///< warp stretch curve
   Curve eta3 = Curve::linear();  ///< weft stretch curve
   Curve eta4 = Curve::linear();  ///< shear curve
+  /// Coupling curve of a12's term, η2(Ẽ11 Ẽ22) (Eq. 2). The paper keeps η2(x) = x (§5.2); its
+  /// block comes after eta4's so that the three fitted curves keep their offsets.
+  Curve eta2 = Curve::linear();
   Cutoffs cutoffs;
   /// Law-side bending ratios b_w, b_f (layout above; > 0): the shells scale the orthotropic
   /// bending strain by S = diag(√b_w, √b_f, (b_w b_f)^¼) before the through-thickness
@@ -86,7 +89,7 @@ struct MaterialParameters {
   /// (layout above).
   std::vector<ComponentChoice> effects;
 
-  /// Number of entries of the flat vector (depends on the three degrees).
+  /// Number of entries of the flat vector (depends on the curves' degrees).
   int flat_size() const;
   /// Flat vector in the layout documented above.
   Eigen::VectorXd to_flat() const;
@@ -110,7 +113,7 @@ struct FlatLayout {
   static constexpr int kFirstCurve = 6;
   /// Entries of the bending block: warp ratio, then weft ratio.
   static constexpr int kBendingRatios = 2;
-  int eta1 = 0, eta3 = 0, eta4 = 0;  ///< offset of each curve's block (its mu[1] entry)
+  int eta1 = 0, eta3 = 0, eta4 = 0, eta2 = 0;  ///< offset of each curve's block (its mu[1] entry)
   int bending = 0;  ///< offset of the bending ratios (bending.warp_ratio; weft at bending + 1)
   int effects = 0;  ///< offset of the effects' parameters (= the law's parameter count)
   int size = 0;

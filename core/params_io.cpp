@@ -53,7 +53,8 @@ std::optional<Problem> find_problem(const MaterialParameters& p) {
     return Problem{"a12_Pa", "a12² must be below a11·a22 (positive-definite small-strain stiffness); "
                              "a12 = " + format_double(p.a12_Pa) + ", sqrt(a11·a22) = " +
                                  format_double(std::sqrt(p.a11_Pa * p.a22_Pa))};
-  const std::pair<const char*, const Curve*> curves[] = {{"eta1", &p.eta1}, {"eta3", &p.eta3}, {"eta4", &p.eta4}};
+  const std::pair<const char*, const Curve*> curves[] = {
+      {"eta1", &p.eta1}, {"eta3", &p.eta3}, {"eta4", &p.eta4}, {"eta2", &p.eta2}};
   for (const auto& [name, curve] : curves)
     if (auto problem = curve_problem(name, *curve)) return problem;
 
@@ -81,7 +82,7 @@ class ParamsReader {
   MaterialParameters read() {
     YamlMap map(root_);
     map.expect({"model", "density_kg_m2", "thickness_m", "a11_Pa", "a12_Pa", "a22_Pa", "G12_Pa", "eta1", "eta3", "eta4",
-                "cutoffs", "effects"});
+                "eta2", "cutoffs", "effects"});
     MaterialParameters p;
     const YamlValue model = take(map, "model");
     if (model.as_string() != kClyde2017ModelName)
@@ -95,6 +96,7 @@ class ParamsReader {
     p.eta1 = read_curve(take(map, "eta1"));
     p.eta3 = read_curve(take(map, "eta3"));
     p.eta4 = read_curve(take(map, "eta4"));
+    if (map.find("eta2")) p.eta2 = read_curve(take(map, "eta2"));  // optional: the paper's η2(x) = x
     p.cutoffs = read_cutoffs(take(map, "cutoffs"));
     if (const auto effects = map.find("effects")) p.effects = read_effects(*effects);
     map.finish();
@@ -251,6 +253,8 @@ std::string params_to_yaml(const MaterialParameters& p) {
   const std::pair<const char*, const Curve*> curves[] = {{"eta1", &p.eta1}, {"eta3", &p.eta3}, {"eta4", &p.eta4}};
   for (const auto& [name, c] : curves)
     out += std::string(name) + ": {mu: " + list_text(c->mu) + ", alpha: " + list_text(c->alpha) + "}\n";
+  if (p.eta2 != Curve::linear())  // the paper's η2(x) = x is the key's absence
+    out += "eta2: {mu: " + list_text(p.eta2.mu) + ", alpha: " + list_text(p.eta2.alpha) + "}\n";
   const auto& c = p.cutoffs;
   out += "cutoffs: {E11_min: " + optional_text(c.E11_min) + ", E11_max: " + optional_text(c.E11_max) +
          ", E22_min: " + optional_text(c.E22_min) + ", E22_max: " + optional_text(c.E22_max) +

@@ -11,12 +11,14 @@
 //   eta1: {mu: [1.3, -0.3], alpha: [2.0, 8.0]}   # curves η1, η3, η4 (paper §3.1)
 //   eta3: {mu: [1.0], alpha: [3.0]}
 //   eta4: {mu: [1.0], alpha: [1.5]}
+//   eta2: {mu: [1.0], alpha: [4.0]}               # optional: the coupling curve, absent: η2(x) = x
 //   cutoffs: {E11_min: 0.0, E11_max: 0.12, E22_min: 0.0, E22_max: 0.18, E12_max: 0.35}
 //
 //   effects: {misalignment: {spread_deg: 1.5}}   # optional: the model's effects
 //
-// Every key above is required except `cutoffs.E11_min` and `cutoffs.E22_min` (default 0:
-// compression is extrapolated from zero strain, model.md §4) and `effects`. A cutoff is a
+// Every key above is required except `eta2` (absent: the paper's η2(x) = x, §5.2; written only
+// when it is not), `cutoffs.E11_min` and `cutoffs.E22_min` (default 0: compression is
+// extrapolated from zero strain, model.md §4) and `effects`. A cutoff is a
 // number or `null` (off). There is no `E12_min`: the shear box is symmetric. Any other key is
 // an error. `effects` maps a registered effect's name (core/registry.hpp, category "effect")
 // to its parameters, resolved strictly against the effect's schema (unknown effect or

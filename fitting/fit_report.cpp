@@ -111,6 +111,8 @@ json report_json(const FitReport& r, const Options& config) {
   for (const auto& [name, c] : {std::pair{"eta1", &r.parameters.eta1}, std::pair{"eta3", &r.parameters.eta3},
                                 std::pair{"eta4", &r.parameters.eta4}})
     p[name] = {{"mu", c->mu}, {"alpha", c->alpha}};
+  if (r.parameters.eta2 != Curve::linear())  // as params.yaml: absent is the paper's η2(x) = x
+    p["eta2"] = {{"mu", r.parameters.eta2.mu}, {"alpha", r.parameters.eta2.alpha}};
   auto opt = [](const std::optional<double>& v) { return v ? json(*v) : json(nullptr); };
   p["cutoffs"] = {{"E11_min", opt(r.parameters.cutoffs.E11_min)}, {"E11_max", opt(r.parameters.cutoffs.E11_max)},
                   {"E22_min", opt(r.parameters.cutoffs.E22_min)}, {"E22_max", opt(r.parameters.cutoffs.E22_max)},

@@ -144,8 +144,8 @@ void validate_parameters(const MaterialParameters& p) {
   if (!(p.a11_Pa > 0.0)) fail("a11_Pa", "a11 must be positive, got " + std::to_string(p.a11_Pa));
   if (!(p.a22_Pa > 0.0)) fail("a22_Pa", "a22 must be positive, got " + std::to_string(p.a22_Pa));
   if (!(p.G12_Pa > 0.0)) fail("G12_Pa", "G12 must be positive, got " + std::to_string(p.G12_Pa));
-  const std::array<std::pair<const char*, const Curve*>, 3> curves = {
-      {{"eta1", &p.eta1}, {"eta3", &p.eta3}, {"eta4", &p.eta4}}};
+  const std::array<std::pair<const char*, const Curve*>, 4> curves = {
+      {{"eta1", &p.eta1}, {"eta3", &p.eta3}, {"eta4", &p.eta4}, {"eta2", &p.eta2}}};
   for (const auto& [key, c] : curves)
     if (c->degree() < 1 || c->mu.size() != c->alpha.size())
       fail(key, std::string("curve needs as many mu as alpha values, at least one"));

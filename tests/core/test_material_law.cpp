@@ -14,7 +14,7 @@ namespace {
 using testing::check_directional_derivative;
 
 /// A nonlinear law with curves of degree 2, 3 and 2, a negative μ, a tiny α (series path)
-/// and a large one, and cutoffs on.
+/// and a large one, a nonlinear coupling curve η2 (degree 2, a negative α), and cutoffs on.
 MaterialParameters nonlinear_parameters() {
   MaterialParameters p;
   p.a11_Pa = 3e7;
@@ -24,9 +24,14 @@ MaterialParameters nonlinear_parameters() {
   p.eta1 = Curve{{1.3, -0.3}, {2.0, 40.0}};
   p.eta3 = Curve{{0.5, 0.3, 0.2}, {1e-7, 12.0, 30.0}};
   p.eta4 = Curve{{0.7, 0.3}, {5.0, -3.0}};
+  p.eta2 = Curve{{0.8, 0.2}, {25.0, -4.0}};
   p.cutoffs = Cutoffs{0.0, 0.06, 0.0, 0.08, 0.2};
   return p;
 }
+
+/// The interval of u = Ẽ11 Ẽ22 over nonlinear_parameters()' box (the coupling curve's own
+/// cutoffs, material_law.hpp): its corner products.
+constexpr double kProductMin = 0.0, kProductMax = 0.06 * 0.08;
 
 /// Strains inside the box, outside each bound, and outside several at once.
 std::vector<Vector3> strain_samples() {
@@ -57,6 +62,10 @@ double safe_step(const MaterialParameters& p, const Vector3& e) {
   keep_away(e[1], p.cutoffs.E22_max);
   keep_away(e[2], p.cutoffs.E12_max);
   if (p.cutoffs.E12_max) h = std::min(h, 0.25 * std::abs(e[2] + *p.cutoffs.E12_max));
+  // u = Ẽ11 Ẽ22 moves by about (|Ẽ11| + |Ẽ22|) h.
+  const double speed = std::abs(e[0]) + std::abs(e[1]);
+  for (const double bound : {kProductMin, kProductMax})
+    if (speed > 0) h = std::min(h, 0.25 * std::abs(e[0] * e[1] - bound) / speed);
   return h;
 }
 
@@ -163,7 +172,9 @@ TEST(MaterialLaw, ValueGradientHessianContinuousAcrossEachCutoff) {
     int component;
     double value;
   };
-  const std::vector<Bound> bounds = {{0, 0.0}, {0, 0.06}, {1, 0.0}, {1, 0.08}, {2, 0.2}, {2, -0.2}};
+  // ... and the coupling curve's upper bound in u = Ẽ11 Ẽ22, crossed along Ẽ11 at Ẽ22 = 0.05.
+  const std::vector<Bound> bounds = {{0, 0.0}, {0, 0.06}, {1, 0.0}, {1, 0.08}, {2, 0.2}, {2, -0.2},
+                                     {0, kProductMax / base[1]}};
   for (const Bound& b : bounds) {
     double previous_jump = std::numeric_limits<double>::infinity();
     for (double delta : {1e-4, 1e-6, 1e-8}) {
@@ -215,7 +226,7 @@ double stvk_closed_form(const MaterialParameters& p, const Vector3& e) {
 
 TEST(MaterialLaw, LinearCurvesAreOrthotropicStVenantKirchhoff) {
   MaterialParameters p = nonlinear_parameters();
-  p.eta1 = p.eta3 = p.eta4 = Curve::linear();
+  p.eta1 = p.eta3 = p.eta4 = p.eta2 = Curve::linear();
   p.cutoffs = Cutoffs{std::nullopt, std::nullopt, std::nullopt, std::nullopt, std::nullopt};
   const MaterialLaw law(p);
   for (const Vector3& e : strain_samples()) {
@@ -242,6 +253,7 @@ TEST(MaterialLaw, DegreeOneAlphaOneAndRepeatedAlphaOneAreStVK) {
   p.eta1 = Curve{{1.0}, {1.0}};
   p.eta3 = Curve{{0.4, 0.6}, {1.0, 1.0}};  // any split of Σμ = 1 over α = 1 is linear
   p.eta4 = Curve{{1.0}, {1.0}};
+  p.eta2 = Curve{{0.3, 0.7}, {1.0, 1.0}};  // linear, but not Curve::linear(): the general coupling path
   const MaterialLaw law(p);
   for (const Vector3& e : strain_samples())
     EXPECT_NEAR(law.energy_density(e), stvk_closed_form(p, e), 1e-12 * std::abs(stvk_closed_form(p, e)) + 1e-9);
@@ -250,7 +262,7 @@ TEST(MaterialLaw, DegreeOneAlphaOneAndRepeatedAlphaOneAreStVK) {
 TEST(MaterialLaw, CurveSlopeAtZeroIsOne) {
   // Σμ = 1 ⇔ η'(0) = 1 (paper §3.1): the a's are the small-strain stiffnesses.
   const MaterialParameters p = nonlinear_parameters();
-  for (const Curve& c : {p.eta1, p.eta3, p.eta4}) {
+  for (const Curve& c : {p.eta1, p.eta3, p.eta4, p.eta2}) {
     const CurveValue v = evaluate_curve(c, 0.0);
     EXPECT_NEAR(v.value, 0.0, 1e-15);
     EXPECT_NEAR(v.d1, 1.0, 1e-14);
@@ -272,6 +284,32 @@ TEST(MaterialLaw, AlphaToZeroIsTheLogarithmLimit) {
       EXPECT_NEAR(evaluate_curve(Curve{{1.0}, {alpha}}, x).value, exact, 1e-13 * std::abs(exact));
     }
   }
+}
+
+// The coupling term's extrapolation (material_law.hpp, docs/material_law.md §3a): η2 is
+// univariate in u = Ẽ11 Ẽ22, extrapolated outside u's interval over the box. Where one strain is
+// compressed below its cutoff 0 and the other inside the box — a strip's lateral contraction —
+// u < 0 and η2 enters only through η2'(0) = 1 and η2''(0) = Σ μ(α − 1): two curves with the same
+// η2''(0) give the same law there, and differ where u lies inside its interval. This is why a
+// strip's lateral strain can identify η2's curvature at 0 but not a higher degree.
+TEST(MaterialLaw, BelowTheCompressionCutoffTheCouplingSeesOnlyItsCurvatureAtZero) {
+  MaterialParameters a = nonlinear_parameters(), b = a;
+  a.eta2 = Curve{{1.0}, {4.0}};             // η2''(0) = 3
+  b.eta2 = Curve{{0.5, 0.5}, {2.0, 6.0}};   // η2''(0) = 0.5·1 + 0.5·5 = 3
+  const MaterialLaw la(a), lb(b);
+  auto expect_same = [&](const Vector3& e, bool same) {
+    Vector3 ga, gb;
+    Matrix3 Ha, Hb;
+    const double va = la.energy_density(e, &ga, &Ha), vb = lb.energy_density(e, &gb, &Hb);
+    const double gap = std::abs(va - vb) + (ga - gb).norm() + (Ha - Hb).norm();
+    if (same)
+      EXPECT_LT(gap, 1e-12 * Ha.norm()) << e.transpose();
+    else
+      EXPECT_GT(gap, 1e-6 * Ha.norm()) << e.transpose();
+  };
+  expect_same(Vector3(0.05, -0.02, 0.1), true);   // a warp strip's contraction
+  expect_same(Vector3(-0.03, 0.07, -0.1), true);  // a weft strip's
+  expect_same(Vector3(0.05, 0.07, 0.1), false);   // both stretched: u inside (0, 0.0048)
 }
 
 TEST(MaterialLaw, SmallStrainStiffnessesAreTheAs) {

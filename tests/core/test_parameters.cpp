@@ -18,19 +18,22 @@ TEST(Parameters, FlatLayoutAndNames) {
   const MaterialParameters p = sample();
   const auto names = p.parameter_names();
   ASSERT_EQ(static_cast<int>(names.size()), p.flat_size());
-  EXPECT_EQ(p.flat_size(), 6 + 3 + 5 + 1 + 2);  // ..., curves of degrees 2, 3, 1, bending ratios
+  // ..., curves η1, η3, η4 of degrees 2, 3, 1, the coupling curve η2 (linear), bending ratios
+  EXPECT_EQ(p.flat_size(), 6 + 3 + 5 + 1 + 1 + 2);
   EXPECT_EQ(names[0], "density_kg_m2");
   EXPECT_EQ(names[6], "eta1.mu[1]");
   EXPECT_EQ(names[7], "eta1.alpha[0]");
   EXPECT_EQ(names[9], "eta3.mu[1]");
   EXPECT_EQ(names[14], "eta4.alpha[0]");
-  EXPECT_EQ(names[15], "bending.warp_ratio");
+  EXPECT_EQ(names[15], "eta2.alpha[0]");
+  EXPECT_EQ(names[16], "bending.warp_ratio");
   EXPECT_EQ(names.back(), "bending.weft_ratio");
   const FlatLayout layout(p);
-  EXPECT_EQ(layout.bending, 15);
+  EXPECT_EQ(layout.eta2, 15);
+  EXPECT_EQ(layout.bending, 16);
   EXPECT_EQ(layout.effects, p.flat_size());
   EXPECT_EQ(p.index_of("G12_Pa"), 5);
-  EXPECT_THROW(p.index_of("eta2.mu[0]"), std::invalid_argument);
+  EXPECT_THROW(p.index_of("eta2.mu[0]"), std::invalid_argument);  // μ_0 is dependent (Σμ = 1)
 }
 
 TEST(Parameters, FlatRoundTripKeepsSumOfMuOne) {

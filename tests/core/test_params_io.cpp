@@ -36,7 +36,8 @@ void expect_bit_equal(const MaterialParameters& a, const MaterialParameters& b) 
   EXPECT_TRUE(bit_equal(a.a12_Pa, b.a12_Pa));
   EXPECT_TRUE(bit_equal(a.a22_Pa, b.a22_Pa));
   EXPECT_TRUE(bit_equal(a.G12_Pa, b.G12_Pa));
-  for (auto curve : {&MaterialParameters::eta1, &MaterialParameters::eta3, &MaterialParameters::eta4}) {
+  for (auto curve : {&MaterialParameters::eta1, &MaterialParameters::eta3, &MaterialParameters::eta4,
+                     &MaterialParameters::eta2}) {
     expect_bit_equal((a.*curve).mu, (b.*curve).mu);
     expect_bit_equal((a.*curve).alpha, (b.*curve).alpha);
   }
@@ -96,8 +97,9 @@ TEST(ParamsIo, CutoffDefaultsAndNull) {
   EXPECT_EQ(p.eta3.mu[0], 0.500000000001);
 }
 
-// Random parameters with full-precision digits, degrees 1–5, cutoffs on and off, written and
-// read back: every double must be bit-identical.
+// Random parameters with full-precision digits, degrees 1–5, cutoffs on and off, the optional
+// coupling curve η2 linear (no key written) or not, written and read back: every double must be
+// bit-identical.
 TEST(ParamsIo, RoundTripIsBitExact) {
   std::mt19937_64 rng(20170728);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
@@ -111,7 +113,9 @@ TEST(ParamsIo, RoundTripIsBitExact) {
     p.a22_Pa = 1e7 * (1 + 9 * unit(rng));
     p.a12_Pa = MaterialParameters::tied_a12(p.a11_Pa, p.a22_Pa) * unit(rng);
     p.G12_Pa = 1e5 * (1 + unit(rng));
-    for (Curve* c : {&p.eta1, &p.eta3, &p.eta4}) {
+    const bool linear_coupling = trial % 2 == 0;
+    for (Curve* c : {&p.eta1, &p.eta3, &p.eta4, &p.eta2}) {
+      if (c == &p.eta2 && linear_coupling) continue;
       const int degree = 1 + static_cast<int>(rng() % 5);
       c->mu.assign(static_cast<std::size_t>(degree), 0.0);
       c->alpha.assign(static_cast<std::size_t>(degree), 0.0);
@@ -131,6 +135,7 @@ TEST(ParamsIo, RoundTripIsBitExact) {
     write_params_file(p, path);
     const auto q = read_params_file(path);
     expect_bit_equal(p, q);
+    EXPECT_EQ(params_to_yaml(p).find("eta2:") == std::string::npos, linear_coupling);
     // And the text is stable: writing the read parameters gives the same file.
     EXPECT_EQ(params_to_yaml(q), params_to_yaml(p));
     if (HasFailure()) {

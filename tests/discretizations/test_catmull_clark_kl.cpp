@@ -386,8 +386,9 @@ TEST_P(CatmullClarkKLDerivatives, HessianMatchesFiniteDifferencesOfTheGradient) 
 
 TEST_P(CatmullClarkKLDerivatives, ParameterJacobianMatchesFiniteDifferencesForEveryParameter) {
   d_.set_gravity(Vector3d(0.4, -0.3, -9.81));  // so that density enters the gradient
-  // Degree-2 curves: one mu and two alphas each; then the two bending ratios.
-  ASSERT_EQ(d_.parameters().to_flat().size(), 6 + 3 * 3 + FlatLayout::kBendingRatios);
+  // Degree-2 curves: one mu and two alphas each; the linear coupling curve's alpha; then the
+  // two bending ratios. (A nonlinear coupling curve: EveryDiscretization.CouplingCurve….)
+  ASSERT_EQ(d_.parameters().to_flat().size(), 6 + 3 * 3 + 1 + FlatLayout::kBendingRatios);
   const testing::ParameterStepRule step = testing::relative_parameter_step;
   // τ and the bending ratios move the through-thickness points: no law argument may cross a
   // cutoff over the stencil.

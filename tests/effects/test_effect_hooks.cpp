@@ -275,6 +275,15 @@ TEST(PoissonEffect, TheCouplingRatioSetsA12AndTheStripNarrowsMoreWithIt) {
     return 0.0;
   };
   EXPECT_LT(lateral(k), lateral(paper_material()));  // narrower: a more negative lateral strain
+  // η2''(0) = c: η2 = ((1+x)^(1+c) − 1)/(1+c). Below the compression cutoff the coupling's slope
+  // is η2'(u) = 1 + c u with u = Ẽ11 Ẽ22 < 0: a positive c weakens the coupling as the strip
+  // stretches, so the strip narrows less (docs/effects/poisson.md).
+  MaterialParameters curved = k;
+  curved.effects[0].options.set("coupling_curvature", 20.0);
+  const MaterialParameters curved_law = law_adjusted(curved, registry());
+  EXPECT_EQ(curved_law.eta2, (Curve{{1.0}, {21.0}}));
+  EXPECT_EQ(adjusted.eta2, Curve::linear());  // the neutral curvature is the paper's η2 exactly
+  EXPECT_GT(lateral(curved), lateral(k));
   Dataset no_lateral;
   no_lateral.tensile.resize(1);
   no_lateral.tensile[0].runs.resize(1);

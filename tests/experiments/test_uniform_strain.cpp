@@ -173,7 +173,7 @@ TEST_P(UniformStrainDerivatives, ParameterDerivativesConvergeAtSecondOrder) {
   const FlatLayout layout(k);
   const std::string curve_name = c.loaded_curve;
   const int first = curve_name == "eta1" ? layout.eta1 : curve_name == "eta3" ? layout.eta3 : layout.eta4;
-  const int last = curve_name == "eta1" ? layout.eta3 : curve_name == "eta3" ? layout.eta4 : layout.bending;
+  const int last = curve_name == "eta1" ? layout.eta3 : curve_name == "eta3" ? layout.eta4 : layout.eta2;
   for (int j = first; j < last; ++j)
     EXPECT_GE(dforce.col(j).cwiseAbs().maxCoeff() * std::abs(flat[j]),
               1e-4 * forces.cwiseAbs().maxCoeff())
