@@ -17,6 +17,9 @@ effect library (effects/), so that fitting them back is not circular:
                    (twill's library: normal with spread s); the effect's spread_deg replaces
                    the spec's misalignment_deg (which every strip gets otherwise);
   poisson          a12 = r min(a11, a22) set in the truth's params, lateral strain columns;
+                   optionally `coupling_curve: {mu, alpha}`, the truth's coupling curve eta2 (any
+                   degree; twill's library frees eta2''(0) alone, docs/effects/poisson.md): its
+                   eta2''(0) = sum mu (alpha - 1) is written to truth.yaml as coupling_curvature;
   yarn-damage      NOT in twill's library (issue #16's "mechanism outside the library"): the
                    yarns stretched past an onset strain lose force progressively and do not
                    heal on unloading (damage_factor);
@@ -62,7 +65,7 @@ TEST_KEYS = {"label", "angle_deg", "max_mm", "step_mm", "unload_to_mm", "repeats
 EFFECT_KEYS = {
     "hysteresis": {"name", "warp_friction_N_m", "weft_friction_N_m", "shear_friction_N_m", "yield_strain", "sliders"},
     "rate-dependence": {"name", "ratios", "relaxation_s"},
-    "poisson": {"name", "coupling_ratio"},
+    "poisson": {"name", "coupling_ratio", "coupling_curve"},
     "misalignment": {"name", "spread_deg"},
     "bending-anisotropy": {"name", "warp_ratio", "weft_ratio"},
     "yarn-damage": {"name", "onset_strain", "loss_per_strain", "largest_loss"},
@@ -194,6 +197,8 @@ def truth_params(spec, spec_dir):
     effect = spec.get("effect", {"name": "none"})
     if effect.get("name") == "poisson":
         params["a12_Pa"] = effect["coupling_ratio"] * min(params["a11_Pa"], params["a22_Pa"])
+        if "coupling_curve" in effect:
+            params["eta2"] = {"mu": list(effect["coupling_curve"]["mu"]), "alpha": list(effect["coupling_curve"]["alpha"])}
     return params
 
 
@@ -290,6 +295,9 @@ def main():
         del fabric["bend"]
     with open(os.path.join(args.out, "fabric.yaml"), "w") as f:
         yaml.safe_dump(fabric, f, sort_keys=False)
+    if effect.get("name") == "poisson":  # what the library's coupling_curvature estimates
+        curve = effect.get("coupling_curve", {"mu": [1.0], "alpha": [1.0]})
+        effect = dict(effect, coupling_curvature=sum(m * (a - 1) for m, a in zip(curve["mu"], curve["alpha"])))
     with open(os.path.join(args.out, "truth.yaml"), "w") as f:
         yaml.safe_dump({"generator": "papers/hidden_effects/synthesize.py", "seed": seed, "params": params,
                         "effect": effect, "scatter": spec.get("scatter", 0.0),

@@ -17,6 +17,7 @@
 #include "core/dataset.hpp"
 #include "core/params_io.hpp"
 #include "effects/effect_experiment.hpp"
+#include "effects/poisson/poisson.hpp"
 #include "experiments/predictors.hpp"
 #include "fitting/discovery.hpp"
 #include "fitting/fit_config.hpp"
@@ -234,6 +235,7 @@ TEST(FitWithEffects, HysteresisFromLoadingAndUnloadingRuns) {
 TEST(FitWithEffects, PoissonFromLateralStrains) {
   ComponentChoice poisson = default_choice(registry_category::kEffect, "poisson");
   poisson.options.set("coupling_ratio", 0.3);
+  poisson.options.set("coupling_curvature", 8.0);  // η2''(0): the strips' narrowing eases as they stretch
   const MaterialParameters truth = truth_with(poisson);
   std::vector<double> loading;
   for (int i = 1; i <= 10; ++i) loading.push_back(0.5 * i);
@@ -245,13 +247,39 @@ TEST(FitWithEffects, PoissonFromLateralStrains) {
                                    registry(), {});
   ASSERT_EQ(report.effects.size(), 1u);
   const FitEffect& e = report.effects[0];
-  std::printf("[measured] poisson fit: force and lateral-strain error %.3f %% without (r = 0.5), %.4f %% with; "
-              "r = %.4f\n",
-              100 * e.error_without, 100 * e.error_with, fitted(report, "poisson.coupling_ratio"));
+  std::printf("[measured] poisson fit: force and lateral-strain error %.3f %% without (r = 0.5, c = 0), %.4f %% with; "
+              "r = %.4f, c = %.3f\n",
+              100 * e.error_without, 100 * e.error_with, fitted(report, "poisson.coupling_ratio"),
+              fitted(report, "poisson.coupling_curvature"));
   EXPECT_GT(e.error_without, 0.05);  // r = 0.5 narrows the strips visibly more than 0.3
   expect_significant_score(e);
   EXPECT_LT(e.error_with, 1e-3);
   EXPECT_NEAR(fitted(report, "poisson.coupling_ratio"), 0.3, 1e-3);
+  EXPECT_NEAR(fitted(report, "poisson.coupling_curvature"), 8.0, 0.5);
+  fs::remove_all(folder);
+}
+
+// Data whose coupling curvature lies beyond the effect's bound (η2''(0) = −15 < −10, simulated
+// with the law's own η2): the fit stops on the bound, and the report says the data do not pin
+// the parameter there (effect_fit.cpp note_unpinned) instead of handing out −10 as measured.
+TEST(FitWithEffects, AParameterThatEndsOnABoundIsReportedAsNotPinned) {
+  MaterialParameters truth = truth_with(default_choice(registry_category::kEffect, "poisson"));
+  truth.effects.clear();
+  truth.a12_Pa = 0.3 * std::min(truth.a11_Pa, truth.a22_Pa);
+  truth.eta2 = Curve{{1.0}, {-14.0}};
+  std::vector<double> loading;
+  for (int i = 1; i <= 10; ++i) loading.push_back(0.5 * i);
+  const std::string folder = write_dataset("poisson_bound", truth,
+                                           {{"warp", 90, 300, loading}, {"weft", 0, 300, loading},
+                                            {"bias", 45, 300, loading}});
+  const FitReport report = run_fit(read_dataset(folder), config_with("poisson", ", observable: both"), registry(), {});
+  const double c = fitted(report, "poisson.coupling_curvature");
+  std::printf("[measured] poisson fit of eta2''(0) = -15: c = %.4f, r = %.4f\n", c,
+              fitted(report, "poisson.coupling_ratio"));
+  EXPECT_DOUBLE_EQ(c, Poisson::kMinCouplingCurvature);
+  EXPECT_TRUE(std::any_of(report.notes.begin(), report.notes.end(), [](const std::string& n) {
+    return n.find("poisson.coupling_curvature ended at its lower bound -10: the data do not pin it") != std::string::npos;
+  }));
   fs::remove_all(folder);
 }
 
