@@ -4,6 +4,7 @@
 #include <cassert>
 #include <cmath>
 #include <limits>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -83,7 +84,7 @@ struct TermDerivatives {
 TermDerivatives term_at(const Curve& curve, double c, double coef_scale, double x,
                         bool want_parameters) {
   const double s = x * x;
-  const CurveDerivatives h = curve_at(curve, s, want_parameters);
+  CurveDerivatives h = curve_at(curve, s, want_parameters);
   TermDerivatives t;
   t.value = c * h.eta;
   t.d1 = 2.0 * c * x * h.eta1;
@@ -93,11 +94,12 @@ TermDerivatives term_at(const Curve& curve, double c, double coef_scale, double 
   t.dcoef[0] = coef_scale * h.eta;
   t.dcoef[1] = coef_scale * 2.0 * x * h.eta1;
   t.dcoef[2] = coef_scale * 2.0 * (h.eta1 + 2.0 * s * h.eta2);
-  for (int k = 0; k < 3; ++k) t.dcurve[k].resize(h.d[0].size());
-  for (size_t k = 0; k < h.d[0].size(); ++k) {
-    t.dcurve[0][k] = c * h.d[0][k];
-    t.dcurve[1][k] = 2.0 * c * x * h.d[1][k];
-    t.dcurve[2][k] = 2.0 * c * (h.d[1][k] + 2.0 * s * h.d[2][k]);
+  for (int k = 0; k < 3; ++k) t.dcurve[k] = std::move(h.d[k]);  // chained in place: no copies
+  for (size_t k = 0; k < t.dcurve[0].size(); ++k) {
+    const double de1 = t.dcurve[1][k], de2 = t.dcurve[2][k];
+    t.dcurve[0][k] = c * t.dcurve[0][k];
+    t.dcurve[1][k] = 2.0 * c * x * de1;
+    t.dcurve[2][k] = 2.0 * c * (de1 + 2.0 * s * de2);
   }
   return t;
 }
@@ -148,7 +150,10 @@ CurveValue evaluate_curve(const Curve& c, double x) {
 }
 
 MaterialLaw::MaterialLaw(const MaterialParameters& parameters)
-    : parameters_(parameters), layout_(parameters), bending_scale_(twill::bending_scale(parameters)) {}
+    : parameters_(parameters),
+      layout_(parameters),
+      bending_scale_(twill::bending_scale(parameters)),
+      coupling_shape_(parameters) {}
 
 namespace {
 struct ThreeTerms {
@@ -187,6 +192,14 @@ std::pair<double, double> product_interval(const Cutoffs& box) {
   return {lo, hi};
 }
 
+}  // namespace
+
+CouplingShape::CouplingShape(const MaterialParameters& p) : linear(p.eta2 == Curve::linear()) {
+  std::tie(product_lo, product_hi) = product_interval(p.cutoffs);
+}
+
+namespace {
+
 /// c·h(u), u = Ẽ11 Ẽ22, from (h, h', h'') at u: ∇ = c h' w, H = c (h'' w wᵀ + h' [[0, 1], [1, 0]]),
 /// w = ∂u/∂(Ẽ11, Ẽ22) = (Ẽ22, Ẽ11).
 Bivariate of_product(double c, double h, double h1, double h2, const Vector3& e) {
@@ -214,8 +227,9 @@ struct Coupling {
   std::vector<Bivariate> parameters;
 };
 
-Coupling coupling_term(const MaterialParameters& p, const Vector3& e, bool want_parameters) {
-  const bool linear = p.eta2 == Curve::linear();
+Coupling coupling_term(const MaterialParameters& p, const CouplingShape& shape, const Vector3& e,
+                       bool want_parameters) {
+  const bool linear = shape.linear;
   Coupling out;
   if (linear) {
     const double a12 = p.a12_Pa;
@@ -224,19 +238,29 @@ Coupling coupling_term(const MaterialParameters& p, const Vector3& e, bool want_
     out.term.hessian << 0.0, a12, a12, 0.0;
     if (!want_parameters) return out;
   }
-  const auto [lo, hi] = product_interval(p.cutoffs);
-  const double u = e[0] * e[1], b = std::clamp(u, lo, hi), delta = u - b;
-  CurveDerivatives h = curve_at(p.eta2, b, want_parameters);
+  const double u = e[0] * e[1], b = std::clamp(u, shape.product_lo, shape.product_hi), delta = u - b;
   // The quadratic Taylor polynomial at b (δ = 0 inside): h + h' δ + ½ h'' δ², h' + h'' δ, h''.
   auto expand = [delta](double& h0, double& h1, double h2) {
     h0 += h1 * delta + 0.5 * h2 * delta * delta;
     h1 += h2 * delta;
   };
+  if (linear) {
+    // ∂/∂a12 of a12 u exactly; η2's one entry, α at α = μ = 1 (the formulas of
+    // docs/material_law.md §2 there): ∂η/∂α = L² φ2(L), ∂η'/∂α = L, ∂η''/∂α = 1/(1+b),
+    // L = log(1+b) — without the general path's allocations, in every shell's Eq. 6 assembly.
+    const double L = std::log1p(b);
+    double d0 = L * L * phi2(L), d1 = L;
+    const double d2 = 1.0 / (1.0 + b);
+    expand(d0, d1, d2);
+    out.parameters = {of_product(1.0, u, 1.0, 0.0, e), of_product(p.a12_Pa, d0, d1, d2, e)};
+    return out;
+  }
+  CurveDerivatives h = curve_at(p.eta2, b, want_parameters);
   expand(h.eta, h.eta1, h.eta2);
-  if (!linear) out.term = of_product(p.a12_Pa, h.eta, h.eta1, h.eta2, e);
+  out.term = of_product(p.a12_Pa, h.eta, h.eta1, h.eta2, e);
   if (!want_parameters) return out;
-  out.parameters.push_back(linear ? of_product(1.0, u, 1.0, 0.0, e)  // ∂/∂a12 of a12 u, exactly
-                                  : of_product(1.0, h.eta, h.eta1, h.eta2, e));
+  out.parameters.reserve(1 + h.d[0].size());
+  out.parameters.push_back(of_product(1.0, h.eta, h.eta1, h.eta2, e));
   for (size_t k = 0; k < h.d[0].size(); ++k) {
     expand(h.d[0][k], h.d[1][k], h.d[2][k]);
     out.parameters.push_back(of_product(p.a12_Pa, h.d[0][k], h.d[1][k], h.d[2][k], e));
@@ -247,7 +271,7 @@ Coupling coupling_term(const MaterialParameters& p, const Vector3& e, bool want_
 
 double MaterialLaw::energy_density(const Vector3& e, Vector3* gradient, Matrix3* hessian) const {
   const ThreeTerms t = evaluate_terms(parameters_, e, false);
-  const Bivariate c = coupling_term(parameters_, e, false).term;
+  const Bivariate c = coupling_term(parameters_, coupling_shape_, e, false).term;
   if (gradient) *gradient << t.warp.d1 + c.gradient[0], t.weft.d1 + c.gradient[1], t.shear.d1;
   if (hessian) {
     *hessian << t.warp.d2 + c.hessian(0, 0), c.hessian(0, 1), 0.0,  //
@@ -265,7 +289,7 @@ void MaterialLaw::parameter_derivatives(const Vector3& e, Eigen::VectorXd* dpsi_
   StrainParameterMatrix mixed = StrainParameterMatrix::Zero(3, n);
 
   // The coupling term: a12's column, then η2's entries (each depends on Ẽ11 and Ẽ22).
-  const Coupling coupling = coupling_term(parameters_, e, true);
+  const Coupling coupling = coupling_term(parameters_, coupling_shape_, e, true);
   for (size_t k = 0; k < coupling.parameters.size(); ++k) {
     const int column = k == 0 ? FlatLayout::kA12 : layout_.eta2 + static_cast<int>(k - 1);
     dpsi[column] = coupling.parameters[k].value;

@@ -35,6 +35,15 @@ struct CurveValue {
 };
 CurveValue evaluate_curve(const Curve& c, double x);
 
+/// What the coupling term needs of the parameters at every strain, computed once per law: whether
+/// η2 is the paper's η2(x) = x (evaluated as the bilinear term) and the interval of u = Ẽ11 Ẽ22
+/// over the validity box, outside which η2 is extrapolated (docs/material_law.md §3a).
+struct CouplingShape {
+  explicit CouplingShape(const MaterialParameters& p);
+  bool linear = true;
+  double product_lo = 0, product_hi = 0;
+};
+
 class MaterialLaw {
  public:
   explicit MaterialLaw(const MaterialParameters& parameters);
@@ -64,6 +73,7 @@ class MaterialLaw {
   MaterialParameters parameters_;
   FlatLayout layout_;
   BendingScale bending_scale_;
+  CouplingShape coupling_shape_;
 };
 
 }  // namespace twill

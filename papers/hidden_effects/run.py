@@ -4,7 +4,7 @@ effect hidden by synthesize.py's own law and its twin with no effect (same seed:
 specimens, offsets and noise), each fitted by `twill fit --set 'effects=[E]'`.
 
     run.py TWILL OUTDIR [--effects hysteresis rate-dependence] [--seeds 1 2 3] [--variant V]
-           [--set KEY=VALUE ...]
+           [--set KEY=VALUE ...] [--projection FIT_DIR]
 
 Per (effect, seed) it reads the effect-fit stage's row of report.json:
   error_without  the paper's model fitted (its curves fitted on the loading branches), over
@@ -18,8 +18,10 @@ Per (effect, seed) it reads the effect-fit stage's row of report.json:
                  fitted to the forces, the effect-fit stage evaluating, not fitting): the floor of
                  these data — the twin's is lower where the effect changes the noise's relative
                  size (lateral strains 2.5x smaller at r = 0.2 than at 0.5, the same 2e-4 noise);
-and the fitted parameters against the generator's, scaled by the mean specimen scale of the
-runs the fit used (truth.yaml's `runs`). With --variant V the spec is E-V.yaml (e.g.
+and the fitted parameters against the generator's, scaled by the (geometric) mean specimen
+scale of the runs the fit used (truth.yaml's `runs`) — and, with --projection FIT_DIR, against
+the same effect fitted to the spec's noise-free data (E-noiseless.yaml: what the library's law
+can return of the generator's at best, the law pair differing on purpose). With --variant V the spec is E-V.yaml (e.g.
 misalignment-validation.yaml: the paper's validation strips added). Where the data have
 validation strips, their rows add, hidden and twin: the validation error at the nominal angles
 and with the searched offsets (means over the strips), and the offsets against those drawn
@@ -27,6 +29,7 @@ and with the searched offsets (means over the strips), and the offsets against t
 """
 import argparse
 import json
+import math
 import os
 import subprocess
 import sys
@@ -153,9 +156,30 @@ def effect_row(report_path):
 
 
 def mean_scale(truth, report, label):
+    """The geometric mean of the drawn specimen scales of the runs the fit used for `label`'s test:
+    the specimen the fitted law describes (one run: its scale; every run with a scale each, at
+    geometric mean 1 per test: their geometric mean)."""
     used = {c["run"] for c in report["fit"] if c["label"].startswith(label)}
     scales = [r["scale"] for r in truth["runs"] if os.path.splitext(os.path.basename(r["run"]))[0] in used]
-    return sum(scales) / len(scales) if scales else float("nan")
+    return math.exp(sum(math.log(x) for x in scales) / len(scales)) if scales else float("nan")
+
+
+# Against a fit of the same effect to the spec's noise-free data (--projection: E-noiseless.yaml
+# fitted alike): what the library's law can return of the generator's at best. Per parameter, the
+# test whose specimen scale multiplies it (None: dimensionless or a time).
+PROJECTED = {"hysteresis": [("hysteresis.warp_friction_N_m", "warp"), ("hysteresis.weft_friction_N_m", "weft")],
+             "rate-dependence": [("rate-dependence.viscous_ratio", None), ("rate-dependence.relaxation_s", None)]}
+
+
+def projection_recovery(projection_dir, effect, truth, report, fitted):
+    with open(os.path.join(projection_dir, "report.json")) as f:
+        projected = {p["name"]: p["value"] for p in json.load(f)["effects"][0]["parameters"]}
+    out = {}
+    for name, label in PROJECTED.get(effect, []):
+        expected = projected[name] * (mean_scale(truth, report, label) if label else 1.0)
+        out[name + " vs projection"] = {"fitted": fitted[name], "expected": expected,
+                                        "difference": fitted[name] - expected, "relative": fitted[name] / expected - 1}
+    return out
 
 
 def main():
@@ -166,6 +190,8 @@ def main():
     parser.add_argument("--seeds", nargs="+", type=int, default=[1, 2, 3])
     parser.add_argument("--variant", default=None, help="fit the spec E-VARIANT.yaml instead of E.yaml")
     parser.add_argument("--set", nargs="*", default=["resolution.levels=1"], dest="overrides")
+    parser.add_argument("--projection", help="a fit of the effect to the spec's noise-free data (E-noiseless.yaml, "
+                                             "fitted with the same --set): recovery against it as well")
     args = parser.parse_args()
     os.makedirs(args.out, exist_ok=True)
     rows = []
@@ -206,6 +232,9 @@ def main():
                         row["truth_floor"] = oracle
                     row["recovery"] = (bending_stiffness_recovery(data, fit, row["parameters"])
                                        if effect == "bending-anisotropy" else {})
+                    if args.projection:
+                        row["recovery"].update(projection_recovery(args.projection, effect, truth, report,
+                                                                   row["parameters"]))
                     for name, key, label in COMPARED.get(effect, []):
                         if effect == "misalignment":
                             expected = drawn_spread(truth, report)
