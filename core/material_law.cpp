@@ -137,16 +137,8 @@ double upper(const std::optional<double>& v) {
 
 CurveValue evaluate_curve(const Curve& c, double x) {
   assert(x > -1.0);
-  const double L = std::log1p(x);
-  CurveValue v;
-  for (int i = 0; i < c.degree(); ++i) {
-    const double mu = c.mu[static_cast<size_t>(i)], al = c.alpha[static_cast<size_t>(i)];
-    const double p = std::exp((al - 1.0) * L);
-    v.value += mu * L * phi1(al * L);
-    v.d1 += mu * p;
-    v.d2 += mu * (al - 1.0) * p / (1.0 + x);
-  }
-  return v;
+  const CurveDerivatives h = curve_at(c, x, false);
+  return {h.eta, h.eta1, h.eta2};
 }
 
 MaterialLaw::MaterialLaw(const MaterialParameters& parameters)
