@@ -104,6 +104,14 @@ TermDerivatives term_at(const Curve& curve, double c, double coef_scale, double 
   return t;
 }
 
+/// The second-order Taylor polynomial at a bound b, evaluated δ past it (§3.2): from
+/// (f, f', f'') at b, f ← f + f' δ + ½ f'' δ² and f' ← f' + f'' δ (f'' is unchanged). Every
+/// extrapolated quantity — a term, a curve of u, and their parameter derivatives — uses it.
+void taylor_past_bound(double delta, double& f, double& f1, double f2) {
+  f += f1 * delta + 0.5 * f2 * delta * delta;
+  f1 += f2 * delta;
+}
+
 /// Applies the second-order Taylor extrapolation of §3.2 to one univariate term: outside
 /// [lo, hi] the term is F(b) + F'(b) δ + ½F''(b) δ² about the violated bound b, δ = x − b.
 /// Every derivative (in x and in the parameters) follows from the same expansion.
@@ -113,15 +121,11 @@ TermDerivatives extrapolated_term(const Curve& curve, double c, double coef_scal
   TermDerivatives t = term_at(curve, c, coef_scale, b, want_parameters);
   if (b == x) return t;
   const double delta = x - b;
-  auto expand = [delta](double& f, double& f1, double f2) {
-    f += f1 * delta + 0.5 * f2 * delta * delta;
-    f1 += f2 * delta;
-  };
-  expand(t.value, t.d1, t.d2);
+  taylor_past_bound(delta, t.value, t.d1, t.d2);
   if (want_parameters) {
-    expand(t.dcoef[0], t.dcoef[1], t.dcoef[2]);
+    taylor_past_bound(delta, t.dcoef[0], t.dcoef[1], t.dcoef[2]);
     for (size_t k = 0; k < t.dcurve[0].size(); ++k)
-      expand(t.dcurve[0][k], t.dcurve[1][k], t.dcurve[2][k]);
+      taylor_past_bound(delta, t.dcurve[0][k], t.dcurve[1][k], t.dcurve[2][k]);
   }
   return t;
 }
@@ -230,31 +234,17 @@ Coupling coupling_term(const MaterialParameters& p, const CouplingShape& shape, 
     out.term.hessian << 0.0, a12, a12, 0.0;
     if (!want_parameters) return out;
   }
+  // η2 at u, its quadratic Taylor polynomial past u's bound (δ = 0 inside).
   const double u = e[0] * e[1], b = std::clamp(u, shape.product_lo, shape.product_hi), delta = u - b;
-  // The quadratic Taylor polynomial at b (δ = 0 inside): h + h' δ + ½ h'' δ², h' + h'' δ, h''.
-  auto expand = [delta](double& h0, double& h1, double h2) {
-    h0 += h1 * delta + 0.5 * h2 * delta * delta;
-    h1 += h2 * delta;
-  };
-  if (linear) {
-    // ∂/∂a12 of a12 u exactly; η2's one entry, α at α = μ = 1 (the formulas of
-    // docs/material_law.md §2 there): ∂η/∂α = L² φ2(L), ∂η'/∂α = L, ∂η''/∂α = 1/(1+b),
-    // L = log(1+b) — without the general path's allocations, in every shell's Eq. 6 assembly.
-    const double L = std::log1p(b);
-    double d0 = L * L * phi2(L), d1 = L;
-    const double d2 = 1.0 / (1.0 + b);
-    expand(d0, d1, d2);
-    out.parameters = {of_product(1.0, u, 1.0, 0.0, e), of_product(p.a12_Pa, d0, d1, d2, e)};
-    return out;
-  }
   CurveDerivatives h = curve_at(p.eta2, b, want_parameters);
-  expand(h.eta, h.eta1, h.eta2);
-  out.term = of_product(p.a12_Pa, h.eta, h.eta1, h.eta2, e);
+  taylor_past_bound(delta, h.eta, h.eta1, h.eta2);
+  if (!linear) out.term = of_product(p.a12_Pa, h.eta, h.eta1, h.eta2, e);
   if (!want_parameters) return out;
   out.parameters.reserve(1 + h.d[0].size());
-  out.parameters.push_back(of_product(1.0, h.eta, h.eta1, h.eta2, e));
+  // ∂/∂a12: η2(u); for the paper's η2 exactly the bilinear term's u (as before η2 was a curve).
+  out.parameters.push_back(linear ? of_product(1.0, u, 1.0, 0.0, e) : of_product(1.0, h.eta, h.eta1, h.eta2, e));
   for (size_t k = 0; k < h.d[0].size(); ++k) {
-    expand(h.d[0][k], h.d[1][k], h.d[2][k]);
+    taylor_past_bound(delta, h.d[0][k], h.d[1][k], h.d[2][k]);
     out.parameters.push_back(of_product(p.a12_Pa, h.d[0][k], h.d[1][k], h.d[2][k], e));
   }
   return out;

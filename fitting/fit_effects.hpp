@@ -22,9 +22,9 @@ std::shared_ptr<const Effect> angle_offset_effect(const FitContext& context);
 void check_effects_data(const Dataset& dataset, const FitConfig& config, const Registry& registry);
 
 /// The fitted model's effects: an angle-offset effect's model parameters estimated from the
-/// validation offsets — alone when there are at least two, else pooled with the fit runs'
-/// (its per-run values, where its effect-fit turned them); any other effect keeps the parameters its effect-fit stage fitted (or, without one,
-/// its configured ones), which a note says.
+/// validation offsets — alone when there are at least two, else pooled with the fit runs' (its
+/// per-run values, where its effect-fit turned them); any other effect keeps the parameters its
+/// effect-fit stage fitted (or, without one, its configured ones), which a note says.
 std::vector<ComponentChoice> estimate_effects(FitContext& context, const std::vector<FitCurve>& validation);
 
 }  // namespace twill

@@ -28,7 +28,7 @@ import tempfile
 import yaml
 
 from predict_heldout import error, rows, scaled_error, simulate
-from run import HERE, run, twin_spec, write_summary
+from run import HERE, fit_command, run, twin_spec, write_summary
 
 
 def dataset(twill, out, seed, hidden):
@@ -105,10 +105,7 @@ def main():
             fit = cut + "-fit"
             if not os.path.exists(os.path.join(fit, "report.json")):
                 subset(data, args.fit_rate, cut)
-                cmd = [twill, "fit", cut, "-o", fit, "--quiet", "--set", "effects=[rate-dependence]", "--set",
-                       "resolution.levels=1"]
-                for o in args.overrides:
-                    cmd += ["--set", o]
+                cmd = fit_command(twill, cut, fit, "[rate-dependence]", ["resolution.levels=1"] + args.overrides)
                 if not run(cmd, fit + ".log"):
                     continue
             with open(os.path.join(fit, "report.json")) as f:

@@ -107,6 +107,14 @@ def run(cmd, log):
     return status == 0
 
 
+def fit_command(twill, data, out, effects, overrides):
+    """`twill fit DATA -o OUT --quiet --set effects=EFFECTS` with each override as another --set."""
+    cmd = [twill, "fit", data, "-o", out, "--quiet", "--set", f"effects={effects}"]
+    for o in overrides:
+        cmd += ["--set", o]
+    return cmd
+
+
 def twin_spec(spec_path, out_path, hidden):
     with open(spec_path) as f:
         spec = yaml.safe_load(f)
@@ -140,10 +148,8 @@ def truth_floor(twill, effect, data, fit, overrides):
         with open(os.path.join(fit, "config.yaml")) as f:
             protocol = yaml.safe_load(f)["protocol"]
         index = next(i for i, s in enumerate(protocol) if s["name"] == "effect-fit" and s.get("effect") == effect)
-        cmd = [twill, "fit", data, "-o", oracle, "--quiet", "--set", f"effects=[{{name: {effect}, {options}}}]",
-               "--set", f"protocol[{index}].fit=false"]
-        for o in overrides + EFFECT_OVERRIDES.get(effect, []):
-            cmd += ["--set", o]
+        cmd = fit_command(twill, data, oracle, f"[{{name: {effect}, {options}}}]",
+                          [f"protocol[{index}].fit=false"] + overrides + EFFECT_OVERRIDES.get(effect, []))
         if not run(cmd, oracle + ".log"):
             return None
     return effect_row(os.path.join(oracle, "report.json"))[0]["error_with"]
@@ -207,17 +213,17 @@ def main():
                 if not os.path.exists(os.path.join(fit, "report.json")):
                     ok = run([sys.executable, os.path.join(HERE, "synthesize.py"), spec, "-o", data, "--twill",
                               args.twill, "--seed", str(seed)], data + ".log")
-                    cmd = [args.twill, "fit", data, "-o", fit, "--quiet", "--set", f"effects=[{effect}]"]
-                    for o in args.overrides + EFFECT_OVERRIDES.get(effect, []):
-                        cmd += ["--set", o]
+                    cmd = fit_command(args.twill, data, fit, f"[{effect}]", args.overrides + EFFECT_OVERRIDES.get(effect, []))
                     if not (ok and run(cmd, fit + ".log")):
                         continue
                 e, report = effect_row(os.path.join(fit, "report.json"))
                 with open(os.path.join(data, "truth.yaml")) as f:
-                    validation = validation_recovery(yaml.safe_load(f), report)
+                    truth = yaml.safe_load(f)
+                validation = validation_recovery(truth, report)
                 if validation:
-                    # The spread params.yaml carries: after the validation stage, the RMS over the
-                    # validation and fit-run offsets (the effect-fit row has the fit runs' alone).
+                    # The spread params.yaml carries: estimated after the validation stage (from the
+                    # validation offsets alone when there are two or more; the effect-fit row has the
+                    # fit runs').
                     with open(os.path.join(fit, "params.yaml")) as f:
                         final = yaml.safe_load(f).get("effects", {}).get(effect, {})
                     validation["spread_final"] = final.get("spread_deg")
@@ -225,8 +231,6 @@ def main():
                 if hidden:
                     row.update(error_without=e["error_without"], error_with=e["error_with"],
                                parameters={p["name"]: p["value"] for p in e["parameters"]})
-                    with open(os.path.join(data, "truth.yaml")) as f:
-                        truth = yaml.safe_load(f)
                     oracle = truth_floor(args.twill, effect, data, fit, args.overrides)
                     if oracle is not None:
                         row["truth_floor"] = oracle
