@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numeric>
 #include <random>
 #include <stdexcept>
 #include <vector>
@@ -154,6 +155,25 @@ Statistic statistic_of(const ScoreBasis& basis, const Eigen::VectorXd& r) {
   return out;
 }
 
+// The baseline's basis and the candidate's directions net of it (score_test.hpp), their
+// number in out->dof and the signature P J_e in out->signature.
+ScoreBasis basis_of(const Eigen::MatrixXd& baseline, const Eigen::MatrixXd& candidate, ScoreTest* out) {
+  ScoreBasis basis;
+  basis.q = orthonormal_basis(baseline);
+  basis.signature = out->signature = basis.project(candidate);
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> information(basis.signature.transpose() * basis.signature);
+  // Relative to the candidate's own columns before the projection (eigenvalues are squared
+  // singular values): a direction the baseline absorbs leaves round-off, not a direction.
+  const double reference = (candidate.transpose() * candidate).trace();
+  std::vector<Eigen::Index> kept;
+  for (Eigen::Index k = 0; k < information.eigenvalues().size(); ++k)
+    if (information.eigenvalues()[k] > kRankTolerance * kRankTolerance * reference) kept.push_back(k);
+  out->dof = static_cast<int>(kept.size());
+  basis.directions = information.eigenvectors()(Eigen::all, kept);
+  basis.lambda = information.eigenvalues()(kept);
+  return basis;
+}
+
 // One run's rows of the residual vector and the AR(1) noise fitted to them (score_test.hpp).
 struct RunNoise {
   Eigen::Index begin = 0, size = 0;
@@ -185,15 +205,15 @@ Eigen::VectorXd draw_noise(const std::vector<RunNoise>& runs, Eigen::Index m, st
 
 // The calibrated p-value of `observed` (score_test.hpp): AR(1) noise per predictor's rows,
 // B replicates of T*.
-void calibrate(const ScoreBasis& basis, const Statistic& observed, const std::vector<Eigen::VectorXd>& predictions,
+void calibrate(const ScoreBasis& basis, const Statistic& observed, const std::vector<Eigen::Index>& run_rows,
                const ScoreCalibration& calibration, ScoreTest* out) {
   std::vector<RunNoise> runs;
   Eigen::Index row = 0;
   double correlation = 0;
-  for (const Eigen::VectorXd& p : predictions) {
-    runs.push_back(fit_run_noise(observed.noise, row, p.size()));
-    correlation += runs.back().phi / static_cast<double>(predictions.size());
-    row += p.size();
+  for (const Eigen::Index size : run_rows) {
+    runs.push_back(fit_run_noise(observed.noise, row, size));
+    correlation += runs.back().phi / static_cast<double>(run_rows.size());
+    row += size;
   }
   if (row != observed.noise.size()) throw std::logic_error("score_test: the predictions do not cover the residuals");
   std::mt19937_64 engine(calibration.seed);
@@ -221,22 +241,18 @@ ScoreTest score_test(FitObjective& objective, const Eigen::VectorXd& x, int n_ba
   const Eigen::MatrixXd scales = objective.scale_columns();
   Eigen::MatrixXd baseline(r.size(), n_baseline + scales.cols());
   baseline << jacobian.leftCols(n_baseline), scales;
-  ScoreBasis basis;
-  basis.q = orthonormal_basis(baseline);
+  std::vector<Eigen::Index> run_rows;
+  for (const Eigen::VectorXd& p : objective.last_predictions()) run_rows.push_back(p.size());
+  return score_test(r, baseline, jacobian.rightCols(n - n_baseline), run_rows, calibration);
+}
 
+ScoreTest score_test(const Eigen::VectorXd& r, const Eigen::MatrixXd& baseline, const Eigen::MatrixXd& candidate,
+                     const std::vector<Eigen::Index>& run_rows, const ScoreCalibration& calibration) {
+  if (baseline.rows() != r.size() || candidate.rows() != r.size() ||
+      std::accumulate(run_rows.begin(), run_rows.end(), Eigen::Index{0}) != r.size())
+    throw std::invalid_argument("score_test: the residuals, the directions and the runs' rows do not match");
   ScoreTest out;
-  const Eigen::MatrixXd candidate = jacobian.rightCols(n - n_baseline);
-  basis.signature = out.signature = basis.project(candidate);
-  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> information(basis.signature.transpose() * basis.signature);
-  // Relative to the candidate's own columns before the projection (eigenvalues are squared
-  // singular values): a direction the baseline absorbs leaves round-off, not a direction.
-  const double reference = (candidate.transpose() * candidate).trace();
-  std::vector<Eigen::Index> kept;
-  for (Eigen::Index k = 0; k < information.eigenvalues().size(); ++k)
-    if (information.eigenvalues()[k] > kRankTolerance * kRankTolerance * reference) kept.push_back(k);
-  out.dof = static_cast<int>(kept.size());
-  basis.directions = information.eigenvectors()(Eigen::all, kept);
-  basis.lambda = information.eigenvalues()(kept);
+  ScoreBasis basis = basis_of(baseline, candidate, &out);
   basis.remaining = r.size() - basis.q.cols() - out.dof;
   if (basis.remaining <= 0) {  // nothing left to judge the noise by
     out.sigma2 = std::numeric_limits<double>::quiet_NaN();
@@ -247,13 +263,28 @@ ScoreTest score_test(FitObjective& objective, const Eigen::VectorXd& x, int n_ba
   out.sigma2 = observed.sigma2;
   out.statistic = observed.t;
   Eigen::Index row = 0;
-  for (const Eigen::VectorXd& p : objective.last_predictions()) {
-    out.run_noise.push_back(p.size() > 0 ? observed.noise.segment(row, p.size()).cwiseAbs().mean() : 0.0);
-    row += p.size();
+  for (const Eigen::Index size : run_rows) {
+    out.run_noise.push_back(size > 0 ? observed.noise.segment(row, size).cwiseAbs().mean() : 0.0);
+    row += size;
   }
   if (out.dof == 0) return out;
   out.p_value_iid = f_upper_tail(out.statistic / out.dof, out.dof, static_cast<int>(basis.remaining));
-  if (calibration.replicates > 0) calibrate(basis, observed, objective.last_predictions(), calibration, &out);
+  if (calibration.replicates > 0) calibrate(basis, observed, run_rows, calibration, &out);
+  return out;
+}
+
+ScoreTest score_test_with_known_noise(const Eigen::VectorXd& r, const Eigen::MatrixXd& baseline,
+                                     const Eigen::MatrixXd& candidate, int noise_dof) {
+  if (baseline.rows() != r.size() || candidate.rows() != r.size())
+    throw std::invalid_argument("score_test_with_known_noise: the residuals and the directions do not match");
+  if (noise_dof < 1) throw std::invalid_argument("score_test_with_known_noise: no degree of freedom for the noise");
+  ScoreTest out;
+  const ScoreBasis basis = basis_of(baseline, candidate, &out);
+  const Eigen::VectorXd along = basis.directions.transpose() * (basis.signature.transpose() * basis.project(r));
+  out.statistic = along.dot(along.cwiseQuotient(basis.lambda));
+  out.sigma2 = 1;
+  if (out.dof == 0) return out;
+  out.p_value_iid = out.p_value = f_upper_tail(out.statistic / out.dof, out.dof, noise_dof);
   return out;
 }
 

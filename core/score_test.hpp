@@ -78,7 +78,22 @@ struct ScoreCalibration {
 /// residuals and Jacobian once; throws std::runtime_error when the evaluation fails.
 ScoreTest score_test(FitObjective& objective, const Eigen::VectorXd& x, int n_baseline,
                      const ScoreCalibration& calibration = {});
+/// The same test from its parts, for directions no FitObjective unknown carries (the
+/// misalignment effect's per-strip offsets on the validation strips): the residuals r (m), the
+/// baseline's directions (m × n_b, the specimen scales' among them), the candidate's (m × d),
+/// and each run's number of rows, in order (their sum m: each run's noise and its AR(1)).
+ScoreTest score_test(const Eigen::VectorXd& r, const Eigen::MatrixXd& baseline, const Eigen::MatrixXd& candidate,
+                     const std::vector<Eigen::Index>& run_rows, const ScoreCalibration& calibration = {});
 
+/// The test where the noise's size is measured apart from the residuals — the cantilevers'
+/// chord angles, one per direction, whose noise is the scatter of each direction's repeated
+/// overhangs: r and the directions in units of each observation's standard error, that error
+/// estimated with `noise_dof` degrees of freedom (Σ (repeats − 1)). T = the part of the
+/// projected residual along the candidate's directions, squared; under no effect T/d ~
+/// F(d, noise_dof) (χ²(d)/d as the repeats grow), which is p_value (and p_value_iid; no
+/// bootstrap: one observation per direction has no correlation to model, replicates 0).
+ScoreTest score_test_with_known_noise(const Eigen::VectorXd& r, const Eigen::MatrixXd& baseline,
+                                     const Eigen::MatrixXd& candidate, int noise_dof);
 /// The upper tail P(χ²(dof) > t) (regularised upper incomplete gamma Q(dof/2, t/2)).
 double chi_squared_upper_tail(double t, int dof);
 /// The upper tail P(F(d1, d2) > f) (regularised incomplete beta).

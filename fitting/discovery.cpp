@@ -17,6 +17,7 @@
 #include "effects/effect.hpp"
 #include "fitting/fit_config.hpp"
 #include "fitting/fit_context.hpp"
+#include "fitting/fit_effects.hpp"
 
 namespace twill {
 
@@ -961,6 +962,11 @@ DiscoverHeldOut held_out_check(DiscoverWork& work, const std::string& effect) {
   if (fits_chord_angles(work.fit, effect)) {  // the folds split tensile runs only
     out.note = "its data are the cantilevers' chord angles, one per direction (needs a third cantilever angle or "
                "length to hold out)";
+    return out;
+  }
+  if (is_angle_offset(*work.registry.create<EffectFactories>(registry_category::kEffect, neutral_effect(effect, work.registry)))) {
+    out.note = "its values are each strip's own cutting offset, which predict nothing of other specimens; its evidence "
+               "is the calibrated score test on the validation strips";
     return out;
   }
   const std::vector<DiscoverFold> folds = folds_for(work, effect, &out.held, &out.note);

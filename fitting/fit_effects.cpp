@@ -35,10 +35,6 @@ void check_effects_data(const Dataset& dataset, const FitConfig& config, const R
 
 namespace {
 
-// A spread needs at least two strips cut alike (Misalignment::missing_data asks the same of the
-// fit runs): with fewer validation strips their offsets are pooled with the fit runs'.
-constexpr size_t kValidationStripsForASpread = 2;
-
 // The offsets an angle-offset effect's model parameters are estimated from
 // (docs/effects/misalignment.md, "Which offsets the spread is estimated from"): the validation
 // strips' alone when there are enough of them — off the material axes a cut moves the force to

@@ -18,6 +18,10 @@ bool is_angle_offset(const Effect& effect);
 /// validation stage turns its strips through this effect's set-up hook (§7's Δθ).
 std::shared_ptr<const Effect> angle_offset_effect(const FitContext& context);
 
+/// A spread needs at least two strips cut alike (Misalignment::missing_data asks the same of the
+/// fit runs): with fewer validation strips their offsets are pooled with the fit runs', and the
+/// misalignment effect-fit is judged on the fit runs instead of the validation strips.
+constexpr size_t kValidationStripsForASpread = 2;
 /// Throws InputError (key effects[i]) when a configured effect cannot be fitted to the dataset.
 void check_effects_data(const Dataset& dataset, const FitConfig& config, const Registry& registry);
 

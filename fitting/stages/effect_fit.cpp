@@ -15,7 +15,9 @@
 // An angle-offset effect (misalignment) fits per-run values, not entries of the material's flat
 // vector: its per-run offsets are searched run by run and alternated with the curves'
 // refit (fit_offsets below, `rounds`); its model parameter, the spread, is estimated from them.
-// Its error without is the runs' error at their nominal angles.
+// Its error without is the runs' error at their nominal angles. With two or more validation
+// strips it is judged on those instead (validation_evidence: their offsets are identified,
+// the fit runs' trade with the specimen scales), with a score test, and the spread is theirs.
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -23,6 +25,8 @@
 #include <deque>
 #include <limits>
 #include <map>
+#include <numeric>
+#include <optional>
 
 #include "core/option_binding.hpp"
 #include "core/score_test.hpp"
@@ -39,6 +43,10 @@ namespace {
 constexpr const char* kLateralExperiment = "tensile-lateral";
 /// The level of the finest stage so far (a negative `level`).
 constexpr int kFinestSoFar = -1;
+/// The overhang step of a cantilever's dθ/dL [mm]: D1388 reads the overhang to 1 mm, and the
+/// chord angle is smooth in it (a few degrees per 10 mm), so a forward difference over it is
+/// exact to the percent the noise estimate needs.
+constexpr double kOverhangStepMm = 1.0;
 /// An effect parameter whose neutral value is 0 has no scale of its own: x = 1 stands for this
 /// fraction of its range (hysteresis' frictions: 100 N/m of [0, 1e5], a few % of a strip's
 /// force per width).
@@ -89,6 +97,45 @@ std::vector<ParameterRange> ranges_of(const std::vector<EffectParameter>& parame
     ranges.push_back({p.name, p.lower, p.upper, p.value != 0 ? 0.0 : kScaleOfRange * (p.upper - p.lower)});
   return ranges;
 }
+
+// A validation strip at its nominal angle: forces F, dF/dθ [N/deg] and the measured forces.
+struct StripForces {
+  Eigen::VectorXd force_N, dforce_dangle, measured_N;
+};
+
+// The grid the common offset of a validation test's strips is searched on: the offset search's
+// own rounding (OffsetSearchOptions::resolution_deg), over its range.
+constexpr double kCommonOffsetStepDeg = 0.05;
+
+// Each strip's error (Σ|s F − F̆| / Σ|F̆|, its own best scale) with the strips of `members` at
+// the common offset δ that minimises their mean error, F ≈ F + δ F' (linear in Δθ off the
+// axes, OffsetSearch): what a test's strips miss when they are all cut alike, which the law's
+// own error at that angle looks like.
+void common_offset_errors(const std::vector<StripForces>& strips, const std::vector<size_t>& members,
+                          std::vector<double>* errors) {
+  double best_mean = std::numeric_limits<double>::infinity();
+  for (double delta = -Misalignment::kMaxOffsetDeg; delta <= Misalignment::kMaxOffsetDeg + 1e-12;
+       delta += kCommonOffsetStepDeg) {
+    double sum = 0;
+    for (size_t k : members) {
+      const StripForces& f = strips[k];
+      sum += OffsetSearch::misfit(f.force_N + delta * f.dforce_dangle, f.measured_N, true) / f.measured_N.cwiseAbs().sum();
+    }
+    if (sum >= best_mean * static_cast<double>(members.size())) continue;
+    best_mean = sum / static_cast<double>(members.size());
+    for (size_t k : members) {
+      const StripForces& f = strips[k];
+      (*errors)[k] = OffsetSearch::misfit(f.force_N + delta * f.dforce_dangle, f.measured_N, true) /
+                     f.measured_N.cwiseAbs().sum();
+    }
+  }
+}
+
+// An angle-offset effect's record on the validation strips (EffectFit::validation_evidence).
+struct ValidationEvidence {
+  FitEffect record;
+  std::vector<Eigen::VectorXd> offsets;  ///< per strip, its best offset [deg]
+};
 
 class EffectFit final : public FitStage {
  public:
@@ -159,7 +206,9 @@ class EffectFit final : public FitStage {
     const std::vector<double> without =
         errors_at_neutral(context, *configured, effect_free, map_options, predictors, force_runs, &predicted_without);
     const std::vector<double> noise =
-        score_at_neutral(context, *configured, free, effect_free.size(), map_options, predictors, force_runs, &result);
+        bends() ? bend_score_at_neutral(context, *configured, effect_free, map_options, &result)
+                : score_at_neutral(context, *configured, free, effect_free.size(), map_options, predictors, force_runs,
+                                   &result);
     if (free.size() > effect_free.size())
       fit_effect_first(context, effect_free, map_options, predictors, force_runs, result.resolution, t);
     const std::vector<double> with =
@@ -324,10 +373,12 @@ class EffectFit final : public FitStage {
   void fit_offsets(FitContext& context, size_t index, int level, FitReport& out) {
     std::vector<RunData*> runs;
     for (RunData& d : context.fit_runs) runs.push_back(&d);
+    std::optional<ValidationEvidence> evidence = validation_evidence(context, index, level);
     if (!has_repeats(runs)) {
       context.note("effect " + options_.effect + ": every fit test has one fit run, whose offset the curve "
                    "absorbs: fit-run offsets need repeats (repeats.rule=all); the spread comes from the validation "
                    "offsets alone");
+      if (evidence) finish_with_validation(context, index, std::move(*evidence), out);
       return;
     }
     const std::vector<const RunData*> fixed(runs.begin(), runs.end());
@@ -370,10 +421,112 @@ class EffectFit final : public FitStage {
     std::vector<Eigen::VectorXd> run_values;
     for (const RunData* d : fixed)
       run_values.push_back(Eigen::VectorXd::Constant(1, FitContext::strip_offset(*d)));
+    if (evidence) {
+      finish_with_validation(context, index, std::move(*evidence), out);
+      return;
+    }
     ComponentChoice& fitted = context.params.effects[index];
     fitted.options = context.effects[index]->estimated_from_runs(run_values, fitted.options);
     record_parameters(context, fitted, &result);
     finish(context, std::move(result), out);
+  }
+
+  // The validation strips' record (validation_evidence) with the spread estimated from their
+  // offsets, which also becomes the effect's spread in the parameters.
+  void finish_with_validation(FitContext& context, size_t index, ValidationEvidence evidence, FitReport& out) const {
+    ComponentChoice& fitted = context.params.effects[index];
+    fitted.options = context.effects[index]->estimated_from_runs(evidence.offsets, fitted.options);
+    record_parameters(context, fitted, &evidence.record);
+    context.note(fmt::format("effect {}: judged on the {} validation strips (off the material axes a cut moves the "
+                             "force to first order; fit-run offsets trade with the specimen scales), at the curves "
+                             "fitted before it; the spread is theirs",
+                             options_.effect, evidence.offsets.size()));
+    finish(context, std::move(evidence.record), out);
+  }
+
+  // Misalignment where the data identify it (docs/effects/misalignment.md, "Judged on the
+  // validation strips"): the validation strips, off the material axes, where a cut moves the
+  // force to first order and each strip's offset is its own. At the curves fitted before this
+  // stage (the baseline). The law's own error at a validation angle (its interpolation between
+  // warp, weft and bias) moves every strip of that test alike and looks like a common offset
+  // (measured: 0.2 % on strips cut on their angles, which per-strip offsets halve); a cut is
+  // each strip's own. So the baseline of the score test has per strip its scale (column
+  // s F/F̆) and per test a common offset (the sum of its strips' columns), the candidate per
+  // strip its offset (s F'/F̆, F' = dF/dθ, Eq. 6), residuals r = (s F − F̆)/F̆ at the nominal
+  // angle: d = strips − tests. Errors: without, each test's strips at their best common offset
+  // (F linear in Δθ off the axes: F + δ F' on a grid) and own scales; with, each strip at the
+  // offset its search finds, scale free. nullopt with fewer than kValidationStripsForASpread
+  // validation strips.
+  std::optional<ValidationEvidence> validation_evidence(FitContext& context, size_t index, int level) const {
+    std::vector<const RunData*> runs;
+    for (const RunData& d : context.validation_runs) runs.push_back(&d);
+    if (runs.size() < kValidationStripsForASpread) return std::nullopt;
+    OffsetSearchOptions search_options;
+    search_options.free_scale = true;
+    OffsetSearch search(search_options, context.effects[index]);
+    const auto samples = search.search(context, runs, level);
+    std::vector<Eigen::Index> rows;
+    std::vector<const TensileTest*> tests_of_runs;
+    for (const RunData* d : runs) {
+      rows.push_back(d->force_N.size());
+      if (std::find(tests_of_runs.begin(), tests_of_runs.end(), d->test) == tests_of_runs.end())
+        tests_of_runs.push_back(d->test);
+    }
+    const Eigen::Index m = std::accumulate(rows.begin(), rows.end(), Eigen::Index{0});
+    const auto n_runs = static_cast<Eigen::Index>(runs.size()), n_tests = static_cast<Eigen::Index>(tests_of_runs.size());
+    Eigen::VectorXd r(m);
+    Eigen::MatrixXd baseline = Eigen::MatrixXd::Zero(m, n_runs + n_tests);  // scales, then common offsets
+    Eigen::MatrixXd offsets = Eigen::MatrixXd::Zero(m, n_runs);
+    ValidationEvidence evidence;
+    std::vector<double> with;
+    std::vector<std::string> tests;
+    std::vector<StripForces> forces;
+    Eigen::Index row = 0;
+    for (size_t k = 0; k < runs.size(); ++k) {
+      const OffsetSearch::Sample* nominal = OffsetSearch::nominal(samples[k]);
+      if (!nominal)
+        throw std::runtime_error("effect-fit " + options_.effect + ": validation " + FitContext::run_label(*runs[k]) +
+                                 " did not converge at its nominal angle");
+      const Eigen::VectorXd measured = runs[k]->unscaled_force_N();
+      const Eigen::VectorXd& f = nominal->simulated.force_N;
+      if (nominal->simulated.dforce_dangle.size() != f.size())
+        throw std::logic_error("effect-fit " + options_.effect + ": the offset search kept no dF/dθ at the nominal angle");
+      const double s = OffsetSearch::scale(f, measured, true);
+      const auto i = static_cast<Eigen::Index>(k);
+      const Eigen::VectorXd slope = (s * nominal->simulated.dforce_dangle).cwiseQuotient(measured.cwiseAbs());
+      const auto t = static_cast<Eigen::Index>(std::find(tests_of_runs.begin(), tests_of_runs.end(), runs[k]->test) -
+                                               tests_of_runs.begin());
+      r.segment(row, rows[k]) = (s * f - measured).cwiseQuotient(measured.cwiseAbs());
+      baseline.col(i).segment(row, rows[k]) = (s * f).cwiseQuotient(measured.cwiseAbs());
+      baseline.col(n_runs + t).segment(row, rows[k]) = slope;
+      offsets.col(i).segment(row, rows[k]) = slope;
+      row += rows[k];
+      forces.push_back({f, nominal->simulated.dforce_dangle, measured});
+      const OffsetSearch::Sample& best = *OffsetSearch::best(samples[k]);
+      with.push_back(best.error);
+      tests.push_back(runs[k]->test->label);
+      evidence.offsets.push_back(Eigen::VectorXd::Constant(1, best.offset_deg));
+    }
+    std::vector<double> without(runs.size());
+    for (const TensileTest* test : tests_of_runs) {
+      std::vector<size_t> members;
+      for (size_t k = 0; k < runs.size(); ++k)
+        if (runs[k]->test == test) members.push_back(k);
+      common_offset_errors(forces, members, &without);
+    }
+    const ScoreTest t = score_test(r, baseline, offsets, rows);
+    FitEffect& result = evidence.record;
+    result.effect = options_.effect;
+    result.resolution = resolution_at(context, level);
+    result.runs = static_cast<int>(runs.size());
+    result.points = static_cast<int>(m);
+    result.score = t.statistic;
+    result.score_dof = t.dof;
+    result.score_p_value_iid = t.p_value_iid;
+    result.score_p_value = t.p_value;
+    result.score_noise_correlation = t.noise_correlation;
+    set_errors(tests, without, with, t.run_noise, &result);
+    return evidence;
   }
 
   static bool has_repeats(const std::vector<RunData*>& runs) {
@@ -575,6 +728,105 @@ class EffectFit final : public FitStage {
       context.note("effect " + options_.effect + ": score test not evaluated: " + e.what());
     }
     return {};
+  }
+
+  // The chord angles' test at the effect's neutral values (docs/effects/bending-anisotropy.md,
+  // "Judged against the repeated overhangs"): one chord angle per cantilever direction, at the
+  // mean of its repeated overhangs, leaves no residual to judge the noise by (two ratios, two
+  // directions), but the repeats measure it: a direction's chord angle scatters by
+  // |dθ/dL| sd(L)/√n (dθ/dL by a step of kOverhangStepMm, sd(L) from the overhangs' relative sd
+  // pooled over the directions, pooled_relative_sd). Residuals
+  // and directions in units of that error, the baseline's direction the thickness (the bend
+  // stage's unknown, with the membrane held: a ← a τ0/τ), the candidate's its parameters:
+  // score_test_with_known_noise, with Σ (n − 1) degrees of freedom. Returns each cantilever's
+  // floor, the mean |noise| √(2/π) se; empty (score NaN, a note) when no direction has two
+  // overhangs.
+  std::vector<double> bend_score_at_neutral(FitContext& context, const ComponentChoice& configured,
+                                            const std::vector<std::string>& effect_free,
+                                            const ParameterMap::Options& map_options, FitEffect* result) const {
+    result->score = std::numeric_limits<double>::quiet_NaN();
+    const std::vector<BendTest>& bends = context.dataset().bend;
+    int noise_dof = 0;
+    const double relative_sd = pooled_relative_sd(bends, &noise_dof);
+    if (noise_dof == 0) {
+      context.note("effect " + options_.effect + ": score test not evaluated: one overhang per cantilever direction "
+                   "(needs repeated overhangs to measure the chord angles' noise)");
+      return {};
+    }
+    try {
+      const MaterialParameters neutral = neutral_params(context, configured);
+      std::vector<std::shared_ptr<Predictor>> predictors;
+      for (const BendTest& b : bends) predictors.push_back(context.bend_experiment(b, neutral));
+      Eigen::VectorXd r, unused;
+      Eigen::MatrixXd thickness, candidate;
+      ParameterMap::Options rescale;
+      rescale.rescale_with_thickness = true;
+      residuals_at(neutral, {"thickness_m"}, rescale, predictors, &r, &thickness);
+      residuals_at(neutral, effect_free, map_options, predictors, &unused, &candidate);
+      Eigen::VectorXd se(static_cast<Eigen::Index>(bends.size()));
+      for (size_t j = 0; j < bends.size(); ++j) se[static_cast<Eigen::Index>(j)] = chord_angle_error(context, bends[j], neutral, relative_sd);
+      const ScoreTest t = score_test_with_known_noise(r.cwiseQuotient(se), se.cwiseInverse().asDiagonal() * thickness,
+                                                      se.cwiseInverse().asDiagonal() * candidate, noise_dof);
+      result->score = t.statistic;
+      result->score_dof = t.dof;
+      result->score_p_value_iid = t.p_value_iid;
+      result->score_p_value = t.p_value;
+      std::vector<double> floors;
+      for (Eigen::Index j = 0; j < se.size(); ++j) floors.push_back(std::sqrt(2 / M_PI) * se[j]);
+      return floors;
+    } catch (const std::runtime_error& e) {
+      context.note("effect " + options_.effect + ": score test not evaluated: " + e.what());
+    }
+    result->score = std::numeric_limits<double>::quiet_NaN();
+    return {};
+  }
+
+  // The residuals (p̂ − p̆)/p̆ of `predictors` at `params` and their Jacobian in `free`.
+  static void residuals_at(const MaterialParameters& params, const std::vector<std::string>& free,
+                           const ParameterMap::Options& map_options,
+                           const std::vector<std::shared_ptr<Predictor>>& predictors, Eigen::VectorXd* r,
+                           Eigen::MatrixXd* jacobian) {
+    ParameterMap map(params, free, map_options);
+    FitObjective objective(map, predictors);
+    objective.residuals(map.initial_x(), r, jacobian);
+    if (!std::isfinite(r->sum()))
+      throw std::runtime_error("the cantilevers could not be evaluated: " + objective.last_failure());
+  }
+
+  // The standard error of a cantilever direction's chord angle at the mean of its n overhangs,
+  // relative to the measured angle: |dθ/dL| sd(L)/√n / θ̆, with sd(L) = L̄ times the overhangs'
+  // relative sd pooled over the directions (`relative_sd`).
+  static double chord_angle_error(const FitContext& context, const BendTest& b, const MaterialParameters& params,
+                                  double relative_sd) {
+    BendTest longer = b;
+    for (double& l : longer.overhang_mm) l += kOverhangStepMm;
+    const double at = chord_angle(context, b, params), beyond = chord_angle(context, longer, params);
+    const double n = static_cast<double>(b.overhang_mm.size());
+    return std::abs(beyond - at) / kOverhangStepMm * relative_sd * mean(b.overhang_mm) / std::sqrt(n) /
+           b.chord_angle_deg;
+  }
+
+  // The repeated overhangs' relative sd, pooled over the directions (Σ (n − 1) degrees of
+  // freedom, *dof): a specimen's bending stiffness B scatters by a share, as its tensile scale
+  // does (paper §6.4), and the overhang L ∝ B^(1/3) (D1388) by a share of that, so one relative
+  // sd serves both directions; pooled, T/d is F(d, Σ (n − 1)) (score_test_with_known_noise).
+  static double pooled_relative_sd(const std::vector<BendTest>& bends, int* dof) {
+    double squares = 0;
+    *dof = 0;
+    for (const BendTest& b : bends) {
+      const double m = mean(b.overhang_mm);
+      for (double l : b.overhang_mm) squares += (l / m - 1) * (l / m - 1);
+      *dof += std::max<int>(0, static_cast<int>(b.overhang_mm.size()) - 1);
+    }
+    return *dof > 0 ? std::sqrt(squares / *dof) : 0.0;
+  }
+
+  static double chord_angle(const FitContext& context, const BendTest& b, const MaterialParameters& params) {
+    Eigen::VectorXd value;
+    std::string message;
+    if (!context.bend_experiment(b, params)->predict(params, {}, &value, nullptr, &message))
+      throw std::runtime_error("cantilever " + b.label + " did not converge: " + message);
+    return value[0];
   }
 
   // Each run's error at `params`, by the fit objective's measure (each force run with its

@@ -21,6 +21,9 @@ import subprocess
 import sys
 import time
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "scripts"))
+import twill_cli  # noqa: E402  (scripts/twill_cli.py: what the binary is asked)
+
 STIFFNESS_BAR = 0.02  # tau*a11, tau*a22 relative to the truth (issue #12)
 SHEAR_BAR = 0.05      # tau*G12 (issue #12; was 0.10 while the default locked off-axis)
 
@@ -48,9 +51,7 @@ def read_truth(path):
 
 def registered_names(twill: str, category: str) -> str:
     """The registered names of a category, comma-separated (`twill list --names`)."""
-    out = subprocess.run([twill, "list", "--names", category], check=True, capture_output=True,
-                         text=True).stdout
-    return ",".join(out.split())
+    return ",".join(twill_cli.registered_names(twill, category))
 
 
 def main() -> int:

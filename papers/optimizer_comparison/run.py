@@ -12,15 +12,17 @@ Run with OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 on an otherwise idle machine f
 """
 import argparse
 import json
+import os
 import subprocess
 import sys
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "scripts"))
+import twill_cli  # noqa: E402  (scripts/twill_cli.py: what the binary is asked)
 
 
 def registered_names(twill: str, category: str) -> str:
     """The registered names of a category, comma-separated (`twill list --names`)."""
-    out = subprocess.run([twill, "list", "--names", category], check=True, capture_output=True,
-                         text=True).stdout
-    return ",".join(out.split())
+    return ",".join(twill_cli.registered_names(twill, category))
 
 
 def main() -> int:
