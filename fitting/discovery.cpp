@@ -10,6 +10,7 @@
 #include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <sstream>
 
 #include "core/params_io.hpp"
@@ -37,6 +38,11 @@ constexpr const char* kNone = "none";
 constexpr const char* kUnexplained = "unexplained";
 constexpr const char* kEffectFitStage = "effect-fit";
 constexpr const char* kTensileCurveStage = "tensile-curve";
+// A repeat floor needs this many rows every run covers: fewer cannot tell a scale from scatter.
+constexpr Eigen::Index kRepeatFloorRows = 5;
+// Sweeps of (mean curve, each run's scale onto it): the scales settle in two (they are a few
+// percent apart), the third confirms.
+constexpr int kRepeatFloorSweeps = 3;
 
 // What separates two effects that explain the same misfit: the data a tie names as needed.
 // Keyed by the pair in registration-independent (alphabetical) order.
@@ -594,6 +600,58 @@ std::string misfit_range(const FitReport& baseline, const std::string& test, dou
   return lo <= hi ? fmt::format(", {:g}–{:g} mm", lo, hi) : "";
 }
 
+// The floor a misfit is called unexplained against: the smaller of the effects' residual floor
+// and the repeats' own scatter (either may be missing).
+double misfit_floor(const DiscoverGap& g) {
+  if (!std::isfinite(g.repeat_floor)) return g.floor;
+  return std::isfinite(g.floor) ? std::min(g.floor, g.repeat_floor) : g.repeat_floor;
+}
+
+// A run's loading branch (rows up to its peak), sorted by extension.
+std::vector<std::pair<double, double>> loading_branch(const TensileRun& run) {
+  std::vector<std::pair<double, double>> rows;
+  for (size_t i = 0; i <= run.peak_index && i < run.size(); ++i) rows.emplace_back(run.extension_mm[i], run.force_N[i]);
+  std::stable_sort(rows.begin(), rows.end());
+  return rows;
+}
+
+// The branch's force at extension x by linear interpolation; nullopt outside its range.
+std::optional<double> force_at(const std::vector<std::pair<double, double>>& branch, double x) {
+  if (branch.empty() || x < branch.front().first || x > branch.back().first) return std::nullopt;
+  const auto above = std::lower_bound(branch.begin(), branch.end(), std::make_pair(x, -std::numeric_limits<double>::infinity()));
+  if (above->first == x || above == branch.begin()) return above->second;
+  const auto below = above - 1;
+  return below->second + (above->second - below->second) * (x - below->first) / (above->first - below->first);
+}
+
+std::optional<double> repeat_floor(const TensileTest& test) {
+  std::vector<std::vector<std::pair<double, double>>> branches;
+  for (const TensileRun& run : test.runs) branches.push_back(loading_branch(run));
+  std::vector<std::vector<double>> forces(branches.size());
+  for (const auto& [x, unused] : branches.front()) {
+    std::vector<double> at;
+    for (const auto& b : branches)
+      if (const auto f = force_at(b, x); f && *f > 0) at.push_back(*f);
+    if (x <= 0 || at.size() != branches.size()) continue;
+    for (size_t r = 0; r < at.size(); ++r) forces[r].push_back(at[r]);
+  }
+  const auto k = static_cast<Eigen::Index>(forces.front().size());
+  if (k < kRepeatFloorRows) return std::nullopt;
+  std::vector<Eigen::VectorXd> f;
+  for (const auto& v : forces) f.push_back(Eigen::Map<const Eigen::VectorXd>(v.data(), k));
+  const double n = static_cast<double>(f.size());
+  std::vector<double> scales(f.size(), 1.0);
+  Eigen::VectorXd m = Eigen::VectorXd::Zero(k);
+  for (int sweep = 0; sweep < kRepeatFloorSweeps; ++sweep) {
+    m.setZero();
+    for (size_t r = 0; r < f.size(); ++r) m += scales[r] * f[r] / n;
+    for (size_t r = 0; r < f.size(); ++r) scales[r] = linearised_l1_minimiser(Eigen::VectorXd::Zero(k), f[r], m);
+  }
+  double sum = 0;
+  for (size_t r = 0; r < f.size(); ++r) sum += (scales[r] * f[r] - m).cwiseAbs().sum() / m.cwiseAbs().sum();
+  return sum / n * std::sqrt(n / (n - 1));
+}
+
 // curve-degree's error on `test`'s rows (NaN when it was not fitted or has no such test).
 double richer_curve_error(const DiscoverResult& result, const std::string& test) {
   for (const DiscoverCandidate& c : result.candidates)
@@ -603,24 +661,34 @@ double richer_curve_error(const DiscoverResult& result, const std::string& test)
 
 }  // namespace
 
+std::map<std::string, double> repeat_floors(const Dataset& dataset) {
+  std::map<std::string, double> out;
+  for (const TensileTest& test : dataset.tensile)
+    if (test.role == TestRole::Fit && test.runs.size() >= 2)
+      if (const auto floor = repeat_floor(test)) out[test.label] = *floor;
+  return out;
+}
+
 std::string unexplained_misfit(const DiscoverResult& result, double ratio, std::string* note) {
   const DiscoverGap* worst = nullptr;
   for (const DiscoverGap& g : result.gap) {
-    if (!std::isfinite(g.floor)) continue;
+    const double floor = misfit_floor(g);
+    if (!std::isfinite(floor)) continue;
     const double richer = richer_curve_error(result, g.test);
-    const Misfit m = misfit_of(g.before, g.floor, richer, ratio);
+    const Misfit m = misfit_of(g.before, floor, richer, ratio);
     if (m == Misfit::None) continue;
     if (m == Misfit::CurvesShape) {
       if (note)
         *note += fmt::format("{}{} is {:.1f}× its floor with the protocol's curves and {:.1f}× with each curve one "
                              "degree higher (curve-degree): the curves' shape, not a missing effect",
-                             note->empty() ? "" : "; ", g.test, g.before / g.floor, richer / g.floor);
+                             note->empty() ? "" : "; ", g.test, g.before / floor, richer / floor);
       continue;
     }
-    if (!worst || g.before / g.floor > worst->before / worst->floor) worst = &g;
+    if (!worst || g.before / floor > worst->before / misfit_floor(*worst)) worst = &g;
   }
   if (!worst) return "";
-  return std::string(kUnexplained) + " at " + worst->test + misfit_range(result.baseline, worst->test, ratio * worst->floor);
+  return std::string(kUnexplained) + " at " + worst->test +
+         misfit_range(result.baseline, worst->test, ratio * misfit_floor(*worst));
 }
 
 namespace {
@@ -1067,6 +1135,9 @@ DiscoverResult run_discover(const Dataset& dataset, const Options& config, const
     result.refit = reports.at(passing.front());
   }
   measure_gap(result, floors_by_test(result.candidates), &result.gap, &result.gap_rows, &result.curves);
+  const std::map<std::string, double> repeats = repeat_floors(dataset);
+  for (DiscoverGap& g : result.gap)
+    if (const auto found = repeats.find(g.test); found != repeats.end()) g.repeat_floor = found->second;
   if (result.verdict == kNone) {
     std::string note;
     const std::string misfit = unexplained_misfit(result, options.unexplained_ratio, &note);
@@ -1141,7 +1212,9 @@ json step_times_json(const std::vector<std::pair<std::string, double>>& steps) {
 
 json discover_json(const DiscoverResult& r, const Options& config) {
   json gap = json::object();
-  for (const DiscoverGap& g : r.gap) gap[g.test] = {{"before", g.before}, {"after", g.after}, {"floor", number(g.floor)}};
+  for (const DiscoverGap& g : r.gap)
+    gap[g.test] = {{"before", g.before}, {"after", g.after}, {"floor", number(g.floor)},
+                   {"repeat_floor", number(g.repeat_floor)}};
   json candidates = json::array();
   for (const DiscoverCandidate& c : r.candidates) candidates.push_back(candidate_json(c));
   return {{"dataset", r.baseline.dataset},
@@ -1176,9 +1249,12 @@ std::string discover_markdown(const DiscoverResult& r) {
   md << (steps.empty() ? "" : " (" + steps + ")") << ".\n\n";
   md << "## Gap per test\n\nAverage relative error (model.md §8) on " << r.gap_rows
      << ": the paper's model (before), with the named effects (after), and the noise floor (the mean |residual| "
-        "neither the baseline nor an effect explains, at its neutral values or fitted; docs/discovery.md §2).\n\n| test | before | after | floor |\n|---|---|---|---|\n";
+        "neither the baseline nor an effect explains, at its neutral values or fitted; docs/discovery.md §2) beside the "
+        "repeats' own scatter about their mean curve (no model).\n\n| test | before | after | floor | repeats' scatter |\n"
+        "|---|---|---|---|---|\n";
   for (const DiscoverGap& g : r.gap)
-    md << "| " << g.test << " | " << cell(g.before) << " | " << cell(g.after) << " | " << cell(g.floor) << " |\n";
+    md << "| " << g.test << " | " << cell(g.before) << " | " << cell(g.after) << " | " << cell(g.floor) << " | "
+       << cell(g.repeat_floor) << " |\n";
   md << "\n## Candidates\n\n| effect | status | score T (d) | p (calibrated) | p (iid) | error without → with | why "
         "|\n|---|---|---|---|---|---|---|\n";
   for (const DiscoverCandidate& c : r.candidates) {

@@ -107,6 +107,8 @@ struct DiscoverCandidate {
 struct DiscoverGap {
   std::string test;
   double before = 0, after = 0, floor = 0;
+  /// The test's repeats' own scatter (repeat_floors; NaN without two runs on a shared grid).
+  double repeat_floor = std::numeric_limits<double>::quiet_NaN();
 };
 
 struct DiscoverResult {
@@ -139,8 +141,18 @@ Options discover_fit_config(const Options& config);
 std::vector<DiscoverCandidate> audit_candidates(const Dataset& dataset, const Options& fit_config,
                                                 const DiscoverOptions& options, const Registry& registry);
 
+/// The scatter of each fit test's repeats about their own mean curve, without any model (the
+/// pure error of a lack-of-fit test; docs/discovery.md §2): the runs' loading branches on the
+/// first run's extensions (linear interpolation where they differ; the rows every run covers),
+/// each run at its L1-best scale onto the mean, the mean of the runs' Σ|s f − m|/Σ|m| times
+/// √(n/(n − 1)) (a run's deviation from a mean it is part of). Per test label; a test with
+/// one run, or fewer than kRepeatFloorRows shared rows, has none.
+std::map<std::string, double> repeat_floors(const Dataset& dataset);
+
 /// With nothing named: "unexplained at <test, range>" for the test whose baseline error is
-/// furthest above `ratio` times its floor, or "" when none is. A test that the curve-degree
+/// furthest above `ratio` times its floor — the smaller of the effects' floor and the repeats'
+/// own scatter, so that a misfit no effect explains, which stays in the effects' residual
+/// floors, is still seen — or "" when none is. A test that the curve-degree
 /// candidate's richer curves bring within `ratio` times its floor is the curves' shape, not
 /// unexplained: it is said in `note` instead (docs/discovery.md §1).
 std::string unexplained_misfit(const DiscoverResult& result, double ratio, std::string* note);

@@ -6,8 +6,13 @@ same specimens, offsets and noise: the null data, with the same observables, so 
 candidate the hidden dataset can test is testable on the twin too), each given to
 `twill discover`.
 
-    rates.py TWILL OUTDIR [--effects E ...] [--seeds 1 2 3 4 5] [--scatter 0.10 0.20]
+    rates.py TWILL OUTDIR [--effects SPEC ...] [--seeds 1 2 3 4 5] [--scatter 0.10 0.20]
              [--speeds MM_MIN ...] [--repeats N] [--set KEY=VALUE ...] [--no-twins] [--table-only]
+
+--effects names specs of papers/hidden_effects: an effect (its spec), EFFECT-VARIANT (e.g.
+misalignment-validation: validation strips beside the fit tests), or a mechanism outside the
+library (yarn-damage; the right verdict there is `unexplained`, a name is a false one). Default:
+every registered effect (`twill list --names effect`).
 
 --speeds runs every test of the spec at these crosshead speeds (default: the spec's own). The
 hysteresis spec tests at one speed, where a friction loop and a Maxwell loop look alike and the
@@ -57,13 +62,19 @@ def run(cmd, log):
         return subprocess.run(cmd, stdout=f, stderr=subprocess.STDOUT).returncode == 0
 
 
-def spec_path(effect, variant=None):
-    """The hidden-effects study's spec of an effect (papers/hidden_effects/EFFECT[-VARIANT].yaml)."""
-    return os.path.join(SPECS, f"{effect}-{variant}.yaml" if variant else f"{effect}.yaml")
+def spec_path(spec):
+    """The hidden-effects study's spec (papers/hidden_effects/SPEC.yaml, SPEC an effect or EFFECT-VARIANT)."""
+    return os.path.join(SPECS, f"{spec}.yaml")
 
 
-def spec_for(effect, scatter, hidden, path, speeds=None, repeats=None, variant=None):
-    twin_spec(spec_path(effect, variant), path, hidden)
+def effect_of(spec, names):
+    """The effect a spec hides: the longest of `names` the spec's name is or starts with (EFFECT-VARIANT)."""
+    matches = [n for n in names if spec == n or spec.startswith(n + "-")]
+    return max(matches, key=len) if matches else None
+
+
+def spec_for(spec_name, scatter, hidden, path, speeds=None, repeats=None):
+    twin_spec(spec_path(spec_name), path, hidden)
     with open(path) as f:
         spec = yaml.safe_load(f)
     spec["scatter"] = scatter
@@ -76,10 +87,10 @@ def spec_for(effect, scatter, hidden, path, speeds=None, repeats=None, variant=N
         yaml.safe_dump(spec, f, sort_keys=False)
 
 
-def row_of(effect, scatter, seed, hidden, result, seconds):
+def row_of(spec, effect, scatter, seed, hidden, result, seconds):
     candidates = {c["name"]: c for c in result["candidates"]}
     mine = candidates.get(effect, {})
-    row = {"effect": effect, "scatter": scatter, "seed": seed, "hidden": hidden, "verdict": result["verdict"],
+    row = {"spec": spec, "effect": effect, "scatter": scatter, "seed": seed, "hidden": hidden, "verdict": result["verdict"],
            "named": result["named"], "statuses": {n: c["status"] for n, c in candidates.items()},
            "seconds": seconds}
     if "error_without" in mine:
@@ -108,20 +119,20 @@ def write_tables(out, rows):
     kinds = ["named", "named+false", "false", "tied", "untestable", "unexplained", "failed", "none"]
     groups = {}
     for r in rows:
-        groups.setdefault((r["effect"], r["scatter"], r["hidden"]), []).append(classify(r))
-    lines = ["| hidden effect | data | scatter | datasets | " + " | ".join(kinds) + " |",
+        groups.setdefault((r.get("spec", r["effect"]), r["scatter"], r["hidden"]), []).append(classify(r))
+    lines = ["| spec (hidden effect) | data | scatter | datasets | " + " | ".join(kinds) + " |",
              "|---|---|---|---|" + "---|" * len(kinds)]
     for (effect, scatter, hidden), got in sorted(groups.items()):
         lines.append(f"| {effect} | {'hidden' if hidden else 'twin (none)'} | {scatter:g} | {len(got)} | " +
                      " | ".join(str(got.count(k)) for k in kinds) + " |")
-    lines += ["", "| hidden effect | data | scatter | seed | verdict | named | its error without → with (p) | "
+    lines += ["", "| spec (hidden effect) | data | scatter | seed | verdict | named | its error without → with (p) | "
               "held-out without → with | time |", "|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         c = r.get("candidate", {})
         pct = lambda v: f"{100 * v:.2f} %" if isinstance(v, (int, float)) else "—"
         held = c.get("held_out") or {}
         p = c.get("p_value")
-        lines.append(f"| {r['effect']} | {'hidden' if r['hidden'] else 'twin'} | {r['scatter']:g} | {r['seed']} | "
+        lines.append(f"| {r.get('spec', r['effect'])} | {'hidden' if r['hidden'] else 'twin'} | {r['scatter']:g} | {r['seed']} | "
                      f"{r['verdict']} | {', '.join(r['named']) or '—'} | "
                      f"{pct(c.get('error_without'))} → {pct(c.get('error_with'))} ({'—' if p is None else f'{p:.2g}'}) | "
                      f"{pct(held.get('error_without'))} → {pct(held.get('error_with'))} | {r['seconds']:.0f} s |")
@@ -133,35 +144,34 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("twill")
     parser.add_argument("out")
-    parser.add_argument("--effects", nargs="+", help="effects hidden (default: every registered one); "
-                        f"also {', '.join(OUTSIDE_THE_LIBRARY)} (outside the library)")
+    parser.add_argument("--effects", nargs="+", help="the specs of papers/hidden_effects to hide (default: every "
+                        "registered effect's); EFFECT or EFFECT-VARIANT (e.g. misalignment-validation: validation "
+                        f"strips beside the fit tests); also {', '.join(OUTSIDE_THE_LIBRARY)} (outside the library)")
     parser.add_argument("--seeds", nargs="+", type=int, default=[1, 2, 3, 4, 5])
     parser.add_argument("--scatter", nargs="+", type=float, default=[0.10, 0.20])
     parser.add_argument("--speeds", nargs="+", type=float, help="every test at these speeds (mm/min)")
     parser.add_argument("--repeats", type=int, help="specimens per test and speed")
-    parser.add_argument("--variant", help="the effects' spec variant (papers/hidden_effects/EFFECT-VARIANT.yaml, "
-                        "e.g. misalignment-validation.yaml: validation strips beside the fit tests)")
     parser.add_argument("--set", nargs="*", default=DEFAULT_SET, dest="overrides")
     parser.add_argument("--no-twins", action="store_true", help="only the datasets with the effect hidden")
     parser.add_argument("--table-only", action="store_true", help="rewrite the tables from what has run")
     args = parser.parse_args()
     library = twill_cli.registered_names(args.twill, "effect")
     args.effects = args.effects or library
-    unknown = [e for e in args.effects if e not in library + OUTSIDE_THE_LIBRARY]
+    unknown = [e for e in args.effects if not effect_of(e, library + OUTSIDE_THE_LIBRARY)]
     if unknown:
-        parser.error(f"--effects: {', '.join(unknown)} is neither registered ({', '.join(library)}) "
-                     f"nor outside the library ({', '.join(OUTSIDE_THE_LIBRARY)})")
-    missing = [spec_path(e, args.variant) for e in args.effects if not os.path.exists(spec_path(e, args.variant))]
+        parser.error(f"--effects: {', '.join(unknown)} names no registered effect ({', '.join(library)}) "
+                     f"nor one outside the library ({', '.join(OUTSIDE_THE_LIBRARY)})")
+    missing = [spec_path(e) for e in args.effects if not os.path.exists(spec_path(e))]
     if missing:
-        parser.error(f"--variant {args.variant}: no spec {', '.join(missing)}")
+        parser.error(f"--effects: no spec {', '.join(missing)}")
     os.makedirs(args.out, exist_ok=True)
     rows = []
     for scatter in args.scatter:
         for seed in args.seeds:
-            for effect in args.effects:
+            for spec_name in args.effects:
+                effect = effect_of(spec_name, library + OUTSIDE_THE_LIBRARY)
                 for hidden in (True,) if args.no_twins else (True, False):
-                    name = f"{effect}-{args.variant}" if args.variant else effect
-                    tag = f"{name}-s{scatter:g}-{seed}-{'hidden' if hidden else 'twin'}"
+                    tag = f"{spec_name}-s{scatter:g}-{seed}-{'hidden' if hidden else 'twin'}"
                     data, result = os.path.join(args.out, tag), os.path.join(args.out, tag + "-discover")
                     done = os.path.join(result, "discover.json")
                     seconds = 0.0
@@ -169,7 +179,7 @@ def main():
                         if args.table_only:
                             continue
                         spec = os.path.join(args.out, tag + ".spec.yaml")
-                        spec_for(effect, scatter, hidden, spec, args.speeds, args.repeats, args.variant)
+                        spec_for(spec_name, scatter, hidden, spec, args.speeds, args.repeats)
                         if not run([sys.executable, os.path.join(SPECS, "synthesize.py"), spec, "-o", data, "--twill",
                                     args.twill, "--seed", str(seed)], data + ".log"):
                             print(f"{tag}: generator failed, see {data}.log", flush=True)
@@ -184,7 +194,7 @@ def main():
                         seconds = time.time() - t
                     with open(done) as f:
                         r = json.load(f)
-                    row = row_of(effect, scatter, seed, hidden, r, seconds or r.get("time_s", 0.0))
+                    row = row_of(spec_name, effect, scatter, seed, hidden, r, seconds or r.get("time_s", 0.0))
                     rows.append(row)
                     print(f"{tag}: {row['verdict']} named {row['named']} ({row['seconds']:.0f} s)", flush=True)
                     write_tables(args.out, rows)
