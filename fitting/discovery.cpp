@@ -924,12 +924,22 @@ Options curves_refit_config(const DiscoverWork& work, const MaterialParameters& 
   return config;
 }
 
+// Whether the registered effect `name` is an angle offset (misalignment: per-strip values found
+// by fitting, judged on the validation strips).
+bool is_angle_offset_effect(const Registry& registry, const std::string& name) {
+  return is_angle_offset(*registry.create<EffectFactories>(registry_category::kEffect, neutral_effect(name, registry)));
+}
+
 // The rows that measure curve-degree: those of the tested effect fitted on the most points among
-// the ones with a score test (the whole path, both speeds, lateral strain: what they need).
-const DiscoverCandidate* measuring_candidate(const DiscoverResult& result) {
+// the ones with a score test (the whole path, both speeds, lateral strain: what they need) —
+// not an angle-offset effect's, whose rows are the validation strips and whose stage cannot
+// evaluate without fitting (measured: curve-degree failed on misalignment's, 2026-12-05).
+const DiscoverCandidate* measuring_candidate(const Registry& registry, const DiscoverResult& result) {
   const DiscoverCandidate* most = nullptr;
   for (const DiscoverCandidate& c : result.candidates)
-    if (c.effect && std::isfinite(c.effect->score) && (!most || c.effect->points > most->effect->points)) most = &c;
+    if (c.effect && std::isfinite(c.effect->score) && !is_angle_offset_effect(registry, c.name) &&
+        (!most || c.effect->points > most->effect->points))
+      most = &c;
   return most;
 }
 
@@ -970,10 +980,11 @@ void fit_curve_degree(const DiscoverWork& work, DiscoverResult* result, std::map
     return d.name == kCurveDegreeCandidate && d.status.empty();
   });
   if (c == result->candidates.end()) return;
-  const DiscoverCandidate* measure = measuring_candidate(*result);
+  const DiscoverCandidate* measure = measuring_candidate(work.registry, *result);
   if (!measure) {
     c->status = kUntestable;
-    c->reason = "needs: a tested effect with a score test, whose rows measure it";
+    c->reason = "needs: a tested effect with a score test, whose rows measure it (misalignment's validation strips "
+                "do not: they are not the curves' tests)";
     return;
   }
   if (work.progress) work.progress(0, "candidate curve-degree: every fitted curve one degree higher, on " + measure->name + "'s rows");
@@ -1032,7 +1043,7 @@ DiscoverHeldOut held_out_check(DiscoverWork& work, const std::string& effect) {
                "length to hold out)";
     return out;
   }
-  if (is_angle_offset(*work.registry.create<EffectFactories>(registry_category::kEffect, neutral_effect(effect, work.registry)))) {
+  if (is_angle_offset_effect(work.registry, effect)) {
     out.note = "its values are each strip's own cutting offset, which predict nothing of other specimens; its evidence "
                "is the calibrated score test on the validation strips";
     return out;
