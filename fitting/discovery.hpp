@@ -109,6 +109,9 @@ struct DiscoverGap {
   double before = 0, after = 0, floor = 0;
   /// The test's repeats' own scatter (repeat_floors; NaN without two runs on a shared grid).
   double repeat_floor = std::numeric_limits<double>::quiet_NaN();
+  /// The baseline's own resolution error on the test's strip: its forces at the refit's level
+  /// against one level finer (NaN when not measured).
+  double resolution_error = std::numeric_limits<double>::quiet_NaN();
 };
 
 struct DiscoverResult {
@@ -151,8 +154,8 @@ std::map<std::string, double> repeat_floors(const Dataset& dataset);
 
 /// With nothing named: "unexplained at <test, range>" for the test whose baseline error is
 /// furthest above `ratio` times its floor — the smaller of the effects' floor and the repeats'
-/// own scatter, so that a misfit no effect explains, which stays in the effects' residual
-/// floors, is still seen — or "" when none is. A test that the curve-degree
+/// own scatter plus the baseline's resolution error (a misfit no effect explains stays in the
+/// effects' residual floors; the mesh's own error is not a missing mechanism) — or "" when none is. A test that the curve-degree
 /// candidate's richer curves bring within `ratio` times its floor is the curves' shape, not
 /// unexplained: it is said in `note` instead (docs/discovery.md §1).
 std::string unexplained_misfit(const DiscoverResult& result, double ratio, std::string* note);

@@ -95,6 +95,7 @@ def row_of(spec, effect, scatter, seed, hidden, result, seconds):
            "seconds": seconds}
     if "error_without" in mine:
         row["candidate"] = {k: mine.get(k) for k in ("error_without", "error_with", "p_value", "held_out")}
+        row["candidate"]["parameters"] = {p["name"]: p["value"] for p in mine.get("parameters", [])}
     row["gap"] = result["gap"]
     return row
 
