@@ -1106,7 +1106,8 @@ std::vector<DiscoverFold> folds_for(const DiscoverWork& work, const std::string&
 
 void held_out_folds(DiscoverWork& work, const std::string& effect, const std::vector<DiscoverFold>& folds, DiscoverHeldOut* out);
 
-DiscoverHeldOut held_out_check(DiscoverWork& work, const std::string& effect) {
+DiscoverHeldOut held_out_check(DiscoverWork& work, const DiscoverCandidate& candidate) {
+  const std::string& effect = candidate.name;
   DiscoverHeldOut out;
   if (fits_chord_angles(work.fit, effect)) {  // the folds split tensile runs only
     out.note = "its data are the cantilevers' chord angles, one per direction (needs a third cantilever angle or "
@@ -1114,8 +1115,19 @@ DiscoverHeldOut held_out_check(DiscoverWork& work, const std::string& effect) {
     return out;
   }
   if (is_angle_offset_effect(work.registry, effect)) {
-    out.note = "its values are each strip's own cutting offset, which predict nothing of other specimens; its evidence "
-               "is the calibrated score test on the validation strips";
+    // Each strip's own offset predicts nothing of other specimens; what it predicts is the rest
+    // of its own curve: the record's offsets fitted on the lower half of each validation strip's
+    // rows, judged on the upper half.
+    const std::optional<FitEffect>& e = candidate.effect;
+    if (!e || !std::isfinite(e->held_out_rows_with)) {
+      out.note = "its values are each strip's own cutting offset, which predict nothing of other specimens, and it was "
+                 "not judged on validation strips";
+      return out;
+    }
+    out.held = "rows (each validation strip's upper half, offsets fitted on its lower half)";
+    out.without = e->held_out_rows_without;
+    out.with = e->held_out_rows_with;
+    out.evaluated = true;
     return out;
   }
   const std::vector<DiscoverFold> folds = folds_for(work, effect, &out.held, &out.note);
@@ -1181,7 +1193,7 @@ DiscoverResult run_discover(const Dataset& dataset, const Options& config, const
   judge_candidates(options, nullptr, &result);
   if (options.held_out)
     for (DiscoverCandidate& c : result.candidates)
-      if (c.status == kNamed && c.name != kCurveDegreeCandidate) c.held_out = held_out_check(work, c.name);
+      if (c.status == kNamed && c.name != kCurveDegreeCandidate) c.held_out = held_out_check(work, c);
   judge_candidates(options, nullptr, &result);
   const std::vector<std::string> passing = with_status(result, kNamed);
   if (passing == std::vector<std::string>{kCurveDegreeCandidate}) {

@@ -107,28 +107,34 @@ struct StripForces {
 // own rounding (OffsetSearchOptions::resolution_deg), over its range.
 constexpr double kCommonOffsetStepDeg = 0.05;
 
-// Each strip's error (Σ|s F − F̆| / Σ|F̆|, its own best scale) with the strips of `members` at
-// the common offset δ that minimises their mean error, F ≈ F + δ F' (linear in Δθ off the
-// axes, OffsetSearch): what a test's strips miss when they are all cut alike, which the law's
-// own error at that angle looks like.
-void common_offset_errors(const std::vector<StripForces>& strips, const std::vector<size_t>& members,
-                          std::vector<double>* errors) {
-  double best_mean = std::numeric_limits<double>::infinity();
+// Which of a strip's rows (in order: increasing extension on the loading branch).
+enum class Rows { all, lower_half, upper_half };
+
+// A strip's error Σ|s F − F̆| / Σ|F̆| over `rows` at offset δ, F ≈ F + δ F' (linear in Δθ off the
+// axes, OffsetSearch), at its own best scale there.
+double strip_error(const StripForces& f, double delta, Rows rows) {
+  const Eigen::Index n = f.measured_N.size(), half = n / 2;
+  const Eigen::Index begin = rows == Rows::upper_half ? half : 0, size = rows == Rows::all ? n : rows == Rows::lower_half ? half : n - half;
+  const Eigen::VectorXd measured = f.measured_N.segment(begin, size);
+  const Eigen::VectorXd model = f.force_N.segment(begin, size) + delta * f.dforce_dangle.segment(begin, size);
+  return OffsetSearch::misfit(model, measured, true) / measured.cwiseAbs().sum();
+}
+
+// The offset δ on a kCommonOffsetStepDeg grid over ±Misalignment::kMaxOffsetDeg that minimises
+// the mean error of the strips `members` over `rows`: one offset for all of them (a test cut
+// alike, which the law's own error at that angle looks like) or a strip's own.
+double grid_offset(const std::vector<StripForces>& strips, const std::vector<size_t>& members, Rows rows) {
+  double best = 0, best_sum = std::numeric_limits<double>::infinity();
   for (double delta = -Misalignment::kMaxOffsetDeg; delta <= Misalignment::kMaxOffsetDeg + 1e-12;
        delta += kCommonOffsetStepDeg) {
     double sum = 0;
-    for (size_t k : members) {
-      const StripForces& f = strips[k];
-      sum += OffsetSearch::misfit(f.force_N + delta * f.dforce_dangle, f.measured_N, true) / f.measured_N.cwiseAbs().sum();
-    }
-    if (sum >= best_mean * static_cast<double>(members.size())) continue;
-    best_mean = sum / static_cast<double>(members.size());
-    for (size_t k : members) {
-      const StripForces& f = strips[k];
-      (*errors)[k] = OffsetSearch::misfit(f.force_N + delta * f.dforce_dangle, f.measured_N, true) /
-                     f.measured_N.cwiseAbs().sum();
+    for (size_t k : members) sum += strip_error(strips[k], delta, rows);
+    if (sum < best_sum) {
+      best_sum = sum;
+      best = delta;
     }
   }
+  return best;
 }
 
 // An angle-offset effect's record on the validation strips (EffectFit::validation_evidence).
@@ -455,8 +461,10 @@ class EffectFit final : public FitStage {
   // strip its offset (s F'/F̆, F' = dF/dθ, Eq. 6), residuals r = (s F − F̆)/F̆ at the nominal
   // angle: d = strips − tests. Errors: without, each test's strips at their best common offset
   // (F linear in Δθ off the axes: F + δ F' on a grid) and own scales; with, each strip at the
-  // offset its search finds, scale free. nullopt with fewer than kValidationStripsForASpread
-  // validation strips.
+  // offset its search finds, scale free; held out, both kinds of offset fitted on the lower
+  // half of each strip's rows and judged on the upper half (a cut is the same all along the
+  // curve; an offset fitted to noise is not). nullopt with fewer than
+  // kValidationStripsForASpread validation strips.
   std::optional<ValidationEvidence> validation_evidence(FitContext& context, size_t index, int level) const {
     std::vector<const RunData*> runs;
     for (const RunData& d : context.validation_runs) runs.push_back(&d);
@@ -507,12 +515,20 @@ class EffectFit final : public FitStage {
       tests.push_back(runs[k]->test->label);
       evidence.offsets.push_back(Eigen::VectorXd::Constant(1, best.offset_deg));
     }
-    std::vector<double> without(runs.size());
+    // Without: each test's strips at their common offset. Held out: the offsets fitted on the
+    // lower half of each strip's rows (per test common, per strip own) judged on its upper half.
+    std::vector<double> without(runs.size()), held_without, held_with;
     for (const TensileTest* test : tests_of_runs) {
       std::vector<size_t> members;
       for (size_t k = 0; k < runs.size(); ++k)
         if (runs[k]->test == test) members.push_back(k);
-      common_offset_errors(forces, members, &without);
+      const double common = grid_offset(forces, members, Rows::all);
+      const double common_lower = grid_offset(forces, members, Rows::lower_half);
+      for (size_t k : members) {
+        without[k] = strip_error(forces[k], common, Rows::all);
+        held_without.push_back(strip_error(forces[k], common_lower, Rows::upper_half));
+        held_with.push_back(strip_error(forces[k], grid_offset(forces, {k}, Rows::lower_half), Rows::upper_half));
+      }
     }
     const ScoreTest t = score_test(r, baseline, offsets, rows);
     FitEffect& result = evidence.record;
@@ -526,6 +542,8 @@ class EffectFit final : public FitStage {
     result.score_p_value = t.p_value;
     result.score_noise_correlation = t.noise_correlation;
     set_errors(tests, without, with, t.run_noise, &result);
+    result.held_out_rows_without = mean(held_without);
+    result.held_out_rows_with = mean(held_with);
     return evidence;
   }
 
