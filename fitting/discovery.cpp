@@ -1116,15 +1116,15 @@ DiscoverHeldOut held_out_check(DiscoverWork& work, const DiscoverCandidate& cand
   }
   if (is_angle_offset_effect(work.registry, effect)) {
     // Each strip's own offset predicts nothing of other specimens; what it predicts is the rest
-    // of its own curve: the record's offsets fitted on the lower half of each validation strip's
-    // rows, judged on the upper half.
+    // of its own curve: the record's offsets fitted on every other row of each validation
+    // strip, judged on the rows between (both ways).
     const std::optional<FitEffect>& e = candidate.effect;
     if (!e || !std::isfinite(e->held_out_rows_with)) {
       out.note = "its values are each strip's own cutting offset, which predict nothing of other specimens, and it was "
                  "not judged on validation strips";
       return out;
     }
-    out.held = "rows (each validation strip's upper half, offsets fitted on its lower half)";
+    out.held = "rows (each validation strip's every other row, offsets fitted on the rows between)";
     out.without = e->held_out_rows_without;
     out.with = e->held_out_rows_with;
     out.evaluated = true;

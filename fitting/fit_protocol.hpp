@@ -166,8 +166,8 @@ struct FitEffect {
   std::vector<FitEffectParameter> parameters;
   std::vector<FitEffectTest> tests;  ///< per test, in the order the stage's runs come
   std::vector<FitEffectCurve> curves;  ///< per force run (not for angle-offset effects or fit: false)
-  /// An angle-offset effect judged on validation strips: the strips' mean error on the upper
-  /// half of their rows with the offsets fitted on the lower half — one per test (without) and
+  /// An angle-offset effect judged on validation strips: the strips' mean error on every other
+  /// row with the offsets fitted on the rows between (both ways) — one per test (without) and
   /// one per strip (with); NaN otherwise (twill discover's held-out check for it).
   double held_out_rows_without = std::numeric_limits<double>::quiet_NaN();
   double held_out_rows_with = std::numeric_limits<double>::quiet_NaN();

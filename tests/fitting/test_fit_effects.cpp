@@ -382,12 +382,11 @@ TEST(FitWithEffects, MisalignmentIsJudgedOnTheValidationStripsWithAScoreTest) {
   EXPECT_GE(cut.score_dof, 2);  // strips − tests
   EXPECT_LT(cut.score_p_value, 0.01);
   EXPECT_LT(cut.error_with, cut.error_without / 3);
-  // The held-out rows: offsets fitted on the lower half of each strip's rows predict its upper half.
-  std::printf("[measured] held-out rows (upper halves): %.3f %% at the common offsets, %.3f %% at each strip's own\n",
+  // The held-out rows: offsets fitted on every other row of each strip predict the rows between.
+  std::printf("[measured] held-out rows: %.3f %% at the common offsets, %.3f %% at each strip's own\n",
               100 * cut.held_out_rows_without, 100 * cut.held_out_rows_with);
-  // Measured 3.54 % → 1.78 %: half the rows pin an offset less well on these linear curves,
-  // where a cut is nearly a scale; discover asks only that it holds (with < without).
-  EXPECT_LT(cut.held_out_rows_with, 0.75 * cut.held_out_rows_without);
+  // Measured 5.40 % → 1.74 %; discover asks only that it holds (with < without).
+  EXPECT_LT(cut.held_out_rows_with, cut.held_out_rows_without / 2);
   // On these linear curves a cut is nearly a scale (F' ∝ F for a linear strip), and with the
   // scales free the offsets come out short: 1.25° against 1.37° (measured).
   EXPECT_NEAR(cut.parameters.at(0).value, std::sqrt((1.5 * 1.5 + 1.0 + 4.0 + 0.25) / 4), 0.15);
@@ -401,7 +400,7 @@ TEST(FitWithEffects, MisalignmentIsJudgedOnTheValidationStripsWithAScoreTest) {
     largest_spread = std::max(largest_spread, aligned.parameters.at(0).value);
   }
   std::printf("[measured] strips cut on their angles: %d of %u draws with p < 0.05, %d whose own offsets predicted "
-              "the upper rows better, largest spread %.3f deg\n", rejected, kNullDraws, held, largest_spread);
+              "the held-out rows better, largest spread %.3f deg\n", rejected, kNullDraws, held, largest_spread);
   EXPECT_LE(rejected, 3);  // 1 expected; P(≥ 4 of 20) = 1.6 % for a calibrated test
   EXPECT_LT(largest_spread, 0.3);
 }
