@@ -543,11 +543,7 @@ class EffectFit final : public FitStage {
     result.resolution = resolution_at(context, level);
     result.runs = static_cast<int>(runs.size());
     result.points = static_cast<int>(m);
-    result.score = t.statistic;
-    result.score_dof = t.dof;
-    result.score_p_value_iid = t.p_value_iid;
-    result.score_p_value = t.p_value;
-    result.score_noise_correlation = t.noise_correlation;
+    set_score(t, &result);
     set_errors(tests, without, with, t.run_noise, &result);
     result.held_out_rows_without = mean(held_without);
     result.held_out_rows_with = mean(held_with);
@@ -742,11 +738,7 @@ class EffectFit final : public FitStage {
     try {
       const ScoreTest t = score_at(context, neutral_params(context, configured), free, n_effect, map_options, predictors,
                                    force_runs, {});
-      result->score = t.statistic;
-      result->score_dof = t.dof;
-      result->score_p_value_iid = t.p_value_iid;
-      result->score_p_value = t.p_value;
-      result->score_noise_correlation = t.noise_correlation;
+      set_score(t, result);
       return t.run_noise;
     } catch (const std::runtime_error& e) {
       result->score = std::numeric_limits<double>::quiet_NaN();  // reported as not evaluated, and why
@@ -792,18 +784,23 @@ class EffectFit final : public FitStage {
       for (size_t j = 0; j < bends.size(); ++j) se[static_cast<Eigen::Index>(j)] = chord_angle_error(context, bends[j], neutral, relative_sd);
       const ScoreTest t = score_test_with_known_noise(r.cwiseQuotient(se), se.cwiseInverse().asDiagonal() * thickness,
                                                       se.cwiseInverse().asDiagonal() * candidate, noise_dof);
-      result->score = t.statistic;
-      result->score_dof = t.dof;
-      result->score_p_value_iid = t.p_value_iid;
-      result->score_p_value = t.p_value;
+      set_score(t, result);
       std::vector<double> floors;
       for (Eigen::Index j = 0; j < se.size(); ++j) floors.push_back(std::sqrt(2 / M_PI) * se[j]);
       return floors;
     } catch (const std::runtime_error& e) {
       context.note("effect " + options_.effect + ": score test not evaluated: " + e.what());
     }
-    result->score = std::numeric_limits<double>::quiet_NaN();
     return {};
+  }
+
+  // A score test's statistic, degrees of freedom and p-values into the stage's record.
+  static void set_score(const ScoreTest& t, FitEffect* result) {
+    result->score = t.statistic;
+    result->score_dof = t.dof;
+    result->score_p_value_iid = t.p_value_iid;
+    result->score_p_value = t.p_value;
+    result->score_noise_correlation = t.noise_correlation;
   }
 
   // The residuals (p̂ − p̆)/p̆ of `predictors` at `params` and their Jacobian in `free`.
