@@ -217,5 +217,26 @@ TEST(ScoreTest, WithTheNoiseMeasuredApartHasItsNominalSizeAndFindsTheTerm) {
                std::invalid_argument);
 }
 
+// The candidate's directions beyond the baseline are counted from the signature's singular
+// values, not from the eigenvalues of its Gram matrix, whose round-off (ε‖SᵀS‖) is far above
+// the rank tolerance squared: with two observations and one baseline direction (the two
+// cantilevers' chord angles beside the thickness) two candidate columns leave exactly one
+// direction, whatever the columns. Found when the same bend data gave d = 1 or d = 2 with
+// the chord angles computed two ways (2026-12-05).
+TEST(ScoreTest, CountsTheCandidatesDirectionsBeyondTheBaselineWithoutRoundOff) {
+  constexpr int kDraws = 200;
+  std::mt19937_64 engine(11);
+  std::normal_distribution<double> normal;
+  int counted_one = 0;
+  for (int k = 0; k < kDraws; ++k) {
+    Eigen::MatrixXd baseline(2, 1), candidate(2, 2);
+    baseline << normal(engine), normal(engine);
+    candidate << normal(engine), normal(engine), normal(engine), normal(engine);
+    const Eigen::VectorXd r = Eigen::Vector2d(normal(engine), normal(engine));
+    counted_one += score_test_with_known_noise(r, baseline, candidate, 4).dof == 1;
+  }
+  EXPECT_EQ(counted_one, kDraws);
+}
+
 }  // namespace
 }  // namespace twill
