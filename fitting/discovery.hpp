@@ -42,8 +42,8 @@ struct DiscoverOptions {
   /// The resolution level candidates and held-out folds are fitted at (capped at the baseline's
   /// finest); named effects are refitted at the baseline's finest level.
   int screening_level = 0;
-  /// Test a richer elastic curve (every fitted tensile curve one degree higher) as a candidate
-  /// of its own, `curve-degree` (kCurveDegreeCandidate).
+  /// Test a richer elastic curve (every fitted tensile curve raised until its error stops
+  /// falling) as a candidate of its own, `curve-degree` (kCurveDegreeCandidate).
   bool curve_degree = true;
   /// How each held-out fold's baseline is fitted: "refit" (the protocol's tensile-curve stages
   /// from the baseline's parameters, on the fold's specimens) or "protocol" (the whole protocol
@@ -51,8 +51,9 @@ struct DiscoverOptions {
   std::string fold_baselines = "refit";
 };
 
-/// The candidate that is not an effect: the paper's curves one degree higher (a richer curve
-/// must not pass for physics, nor physics for a richer curve; docs/discovery.md).
+/// The candidate that is not an effect: the paper's curves raised until their error stops
+/// falling (a richer curve must not pass for physics, nor physics for a richer curve;
+/// docs/discovery.md).
 inline constexpr const char* kCurveDegreeCandidate = "curve-degree";
 
 /// The held-out check of a candidate (run_discover): two folds of the specimens (each fit test's
