@@ -72,8 +72,9 @@ struct DiscoverHeldOut {
 
 /// A held-out check's fold: the data a fit sees and the data it is judged on.
 struct DiscoverFold {
-  std::string name;  ///< "fold 1", "at 300 mm/min", ...
+  std::string name;  ///< "fold 1", "at 300 mm/min", "cantilevers 1", ...
   Dataset fitted, held;
+  bool cantilevers_only = false;  ///< only the bend tests' overhangs split (cantilever_folds)
 };
 
 /// The folds that confirm an effect that holds out `kind` (Effect::held_out): one per crosshead
@@ -82,6 +83,11 @@ struct DiscoverFold {
 /// of every fit test); none, with `why`, when every fit test has one specimen. `held` names what
 /// was held out: "speeds" or "specimens".
 std::vector<DiscoverFold> discover_folds(const Dataset& dataset, Effect::HeldOut kind, std::string* held, std::string* why);
+
+/// The folds of an effect fitted to the cantilevers' chord angles (bending-anisotropy): each
+/// bend test's overhangs of even and of odd index, the tensile tests whole in both (a bend test
+/// with one overhang keeps it in both); none when no bend test has two or more.
+std::vector<DiscoverFold> cantilever_folds(const Dataset& dataset);
 
 /// Whether the effect keeps its direction on each fold: in every fold's fit some parameter the
 /// fit on all specimens moved off its neutral value stays off it on the same side (the effect

@@ -336,25 +336,29 @@ TEST(DiscoverFolds, AnEffectThatPredictsSpeedsIsHeldOutBySpeedOtherwiseBySpecime
   EXPECT_NE(why.find("one specimen"), std::string::npos) << why;
 }
 
-// The specimen folds hold out cantilevers too (bending-anisotropy's held-out check: fitted on
-// every other cantilever of each direction, judged at the others' mean overhang); a direction
-// with one cantilever keeps it in both folds, as a test with one run does.
-TEST(DiscoverFolds, SpecimenFoldsSplitEachDirectionsCantilevers) {
+// An effect fitted to the cantilevers' chord angles (bending-anisotropy) is held out by
+// cantilevers: fitted on every other cantilever of each direction, judged at the others' mean
+// overhang, the tensile tests whole in both folds; a direction with one cantilever keeps it in
+// both, as a test with one run does in the specimen folds; no folds without a repeated one.
+TEST(DiscoverFolds, CantileverFoldsSplitEachDirectionsOverhangsAndKeepTheStrips) {
   Dataset d;
   d.tensile = {test_at("warp", 90, std::nullopt, 3)};
   BendTest warp, weft;
   warp.overhang_mm = {107, 108, 109};
   weft.overhang_mm = {80};
   d.bend = {warp, weft};
-  std::string held, why;
-  const std::vector<DiscoverFold> folds = discover_folds(d, Effect::HeldOut::specimens, &held, &why);
+  const std::vector<DiscoverFold> folds = cantilever_folds(d);
   ASSERT_EQ(folds.size(), 2u);
+  EXPECT_TRUE(folds[0].cantilevers_only);
   EXPECT_EQ(folds[0].fitted.bend[0].overhang_mm, (std::vector<double>{107, 109}));
   EXPECT_EQ(folds[0].held.bend[0].overhang_mm, (std::vector<double>{108}));
   EXPECT_EQ(folds[1].fitted.bend[0].overhang_mm, folds[0].held.bend[0].overhang_mm);
   EXPECT_EQ(folds[0].fitted.bend[1].overhang_mm, (std::vector<double>{80}));
   EXPECT_EQ(folds[0].held.bend[1].overhang_mm, (std::vector<double>{80}));
-  EXPECT_EQ(folds[0].fitted.tensile[0].runs.size(), 2u);
+  EXPECT_EQ(folds[0].fitted.tensile[0].runs.size(), 3u);
+  EXPECT_EQ(folds[0].held.tensile[0].runs.size(), 3u);
+  d.bend = {weft};
+  EXPECT_TRUE(cantilever_folds(d).empty());
 }
 
 }  // namespace
