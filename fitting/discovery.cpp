@@ -19,6 +19,7 @@
 #include "fitting/fit_config.hpp"
 #include "fitting/fit_context.hpp"
 #include "fitting/fit_effects.hpp"
+#include "fitting/repeat_branches.hpp"
 
 namespace twill {
 
@@ -40,11 +41,6 @@ constexpr const char* kEffectFitStage = "effect-fit";
 constexpr const char* kTensileCurveStage = "tensile-curve";
 constexpr const char* kFinalCurvesStage = "final-curves";
 constexpr const char* kBendStage = "bend";
-// A repeat floor needs this many rows every run covers: fewer cannot tell a scale from scatter.
-constexpr Eigen::Index kRepeatFloorRows = 5;
-// Sweeps of (mean curve, each run's scale onto it): the scales settle in two (they are a few
-// percent apart), the third confirms.
-constexpr int kRepeatFloorSweeps = 3;
 // curve-degree raises each curve while a raise lowers its error by at least this fraction: the
 // error has stopped falling below it (the protocol's own search stops at 20 %, or at its target).
 constexpr double kRicherCurveMinImprovement = 0.1;
@@ -613,48 +609,13 @@ double misfit_floor(const DiscoverGap& g) {
   return std::isfinite(g.floor) ? std::min(g.floor, model_free) : model_free;
 }
 
-// A run's loading branch (rows up to its peak), sorted by extension.
-std::vector<std::pair<double, double>> loading_branch(const TensileRun& run) {
-  std::vector<std::pair<double, double>> rows;
-  for (size_t i = 0; i <= run.peak_index && i < run.size(); ++i) rows.emplace_back(run.extension_mm[i], run.force_N[i]);
-  std::stable_sort(rows.begin(), rows.end());
-  return rows;
-}
-
-// The branch's force at extension x by linear interpolation; nullopt outside its range.
-std::optional<double> force_at(const std::vector<std::pair<double, double>>& branch, double x) {
-  if (branch.empty() || x < branch.front().first || x > branch.back().first) return std::nullopt;
-  const auto above = std::lower_bound(branch.begin(), branch.end(), std::make_pair(x, -std::numeric_limits<double>::infinity()));
-  if (above->first == x || above == branch.begin()) return above->second;
-  const auto below = above - 1;
-  return below->second + (above->second - below->second) * (x - below->first) / (above->first - below->first);
-}
-
 std::optional<double> repeat_floor(const TensileTest& test) {
-  std::vector<std::vector<std::pair<double, double>>> branches;
-  for (const TensileRun& run : test.runs) branches.push_back(loading_branch(run));
-  std::vector<std::vector<double>> forces(branches.size());
-  for (const auto& [x, unused] : branches.front()) {
-    std::vector<double> at;
-    for (const auto& b : branches)
-      if (const auto f = force_at(b, x); f && *f > 0) at.push_back(*f);
-    if (x <= 0 || at.size() != branches.size()) continue;
-    for (size_t r = 0; r < at.size(); ++r) forces[r].push_back(at[r]);
-  }
-  const auto k = static_cast<Eigen::Index>(forces.front().size());
-  if (k < kRepeatFloorRows) return std::nullopt;
-  std::vector<Eigen::VectorXd> f;
-  for (const auto& v : forces) f.push_back(Eigen::Map<const Eigen::VectorXd>(v.data(), k));
-  const double n = static_cast<double>(f.size());
-  std::vector<double> scales(f.size(), 1.0);
-  Eigen::VectorXd m = Eigen::VectorXd::Zero(k);
-  for (int sweep = 0; sweep < kRepeatFloorSweeps; ++sweep) {
-    m.setZero();
-    for (size_t r = 0; r < f.size(); ++r) m += scales[r] * f[r] / n;
-    for (size_t r = 0; r < f.size(); ++r) scales[r] = linearised_l1_minimiser(Eigen::VectorXd::Zero(k), f[r], m);
-  }
+  const std::optional<RepeatBranches> b = repeat_branches(test);
+  if (!b) return std::nullopt;
+  const double n = static_cast<double>(b->forces.size());
   double sum = 0;
-  for (size_t r = 0; r < f.size(); ++r) sum += (scales[r] * f[r] - m).cwiseAbs().sum() / m.cwiseAbs().sum();
+  for (size_t r = 0; r < b->forces.size(); ++r)
+    sum += (b->scales[r] * b->forces[r] - b->mean).cwiseAbs().sum() / b->mean.cwiseAbs().sum();
   return sum / n * std::sqrt(n / (n - 1));
 }
 

@@ -34,6 +34,7 @@
 #include "fitting/fit_effects.hpp"
 #include "fitting/fit_stage.hpp"
 #include "fitting/offset_search.hpp"
+#include "fitting/repeat_branches.hpp"
 #include "fitting/stages/stage_kinds.hpp"
 
 namespace twill {
@@ -47,6 +48,10 @@ constexpr int kFinestSoFar = -1;
 /// chord angle is smooth in it (a few degrees per 10 mm), so a forward difference over it is
 /// exact to the percent the noise estimate needs.
 constexpr double kOverhangStepMm = 1.0;
+/// The relative step of a direction's membrane stiffness for a cantilever's dθ/d log a: the
+/// chord angle is smooth in the bending stiffness, and its level's noise (several %) needs the
+/// slope to the percent.
+constexpr double kStiffnessStep = 0.01;
 /// An effect parameter whose neutral value is 0 has no scale of its own: x = 1 stands for this
 /// fraction of its range (hysteresis' frictions: 100 N/m of [0, 1e5], a few % of a strip's
 /// force per width).
@@ -781,9 +786,21 @@ class EffectFit final : public FitStage {
       residuals_at(neutral, {"thickness_m"}, rescale, predictors, &r, &thickness);
       residuals_at(neutral, effect_free, map_options, predictors, &unused, &candidate);
       Eigen::VectorXd se(static_cast<Eigen::Index>(bends.size()));
-      for (size_t j = 0; j < bends.size(); ++j) se[static_cast<Eigen::Index>(j)] = chord_angle_error(context, bends[j], neutral, relative_sd);
+      // Satterthwaite's degrees of freedom of the summed variances: the overhangs' shares one
+      // pooled estimate (noise_dof), each direction's level its own (n − 1).
+      double overhangs = 0, levels = 0, levels_over_dof = 0;
+      for (size_t j = 0; j < bends.size(); ++j) {
+        const double overhang = chord_angle_error(context, bends[j], neutral, relative_sd);
+        const LevelNoise level = curve_level_error(context, bends[j], neutral);
+        se[static_cast<Eigen::Index>(j)] = std::hypot(overhang, level.se);
+        overhangs += overhang * overhang;
+        levels += level.se * level.se;
+        if (level.dof > 0) levels_over_dof += std::pow(level.se, 4) / level.dof;
+      }
+      const double total = overhangs + levels;
+      const int dof = std::max(1, static_cast<int>(total * total / (overhangs * overhangs / noise_dof + levels_over_dof)));
       const ScoreTest t = score_test_with_known_noise(r.cwiseQuotient(se), se.cwiseInverse().asDiagonal() * thickness,
-                                                      se.cwiseInverse().asDiagonal() * candidate, noise_dof);
+                                                      se.cwiseInverse().asDiagonal() * candidate, dof);
       set_score(t, result);
       std::vector<double> floors;
       for (Eigen::Index j = 0; j < se.size(); ++j) floors.push_back(std::sqrt(2 / M_PI) * se[j]);
@@ -826,6 +843,40 @@ class EffectFit final : public FitStage {
     const double n = static_cast<double>(b.overhang_mm.size());
     return std::abs(beyond - at) / kOverhangStepMm * relative_sd * mean(b.overhang_mm) / std::sqrt(n) /
            b.chord_angle_deg;
+  }
+
+  // The noise a cantilever's chord angle carries from its direction's membrane stiffness: the
+  // curve of that direction sits at the geometric mean of its fit runs' specimen scales, off by
+  // sd(log s_r)/√n, and the bending stiffness τ³a/12 follows a — so the chord angle by
+  // |dθ/d log a| times that, relative to the measured angle (dof n − 1). The scales are the
+  // runs' own onto their mean (repeat_branches, no model: the stage may run after a start-from
+  // that kept none). Without it, null data whose warp and weft curves missed their truth by
+  // 14 % and 6 % (3 strips each at 20 % scatter) were named anisotropic (papers/discovery,
+  // bending twin 4; docs/effects/bending-anisotropy.md, "What the chord angles cannot tell from
+  // anisotropy"). None (0, 0) without a fitted curve at the cantilever's angle or with fewer
+  // than two runs there.
+  struct LevelNoise {
+    double se = 0;
+    int dof = 0;
+  };
+  static LevelNoise curve_level_error(const FitContext& context, const BendTest& b, const MaterialParameters& params) {
+    const auto stage = std::find_if(context.fitted_curves.begin(), context.fitted_curves.end(),
+                                    [&](const CurveStage& c) { return c.angle_deg == b.angle_deg; });
+    if (stage == context.fitted_curves.end()) return {};
+    std::vector<double> logs;
+    for (const TensileTest& test : context.dataset().tensile)
+      if (test.role == TestRole::Fit && test.angle_deg == b.angle_deg)
+        if (const std::optional<RepeatBranches> repeats = repeat_branches(test))
+          for (double scale : repeats->scales) logs.push_back(std::log(scale));
+    if (logs.size() < 2) return {};
+    const double n = static_cast<double>(logs.size()), m = mean(logs);
+    double squares = 0;
+    for (double l : logs) squares += (l - m) * (l - m);
+    const double level_sd = std::sqrt(squares / (n - 1) / n);
+    MaterialParameters stiffer = params;
+    stiffer.*(stage->term->stiffness_member) *= 1 + kStiffnessStep;
+    const double slope = (chord_angle(context, b, stiffer) - chord_angle(context, b, params)) / std::log1p(kStiffnessStep);
+    return {std::abs(slope) * level_sd / b.chord_angle_deg, static_cast<int>(logs.size()) - 1};
   }
 
   // The repeated overhangs' relative sd, pooled over the directions (Σ (n − 1) degrees of

@@ -10,6 +10,7 @@
 #include <cstdio>
 
 #include "fitting/discovery.hpp"
+#include "fitting/repeat_branches.hpp"
 
 namespace twill {
 namespace {
@@ -286,6 +287,12 @@ TEST(DiscoverRepeatFloor, IsTheRepeatsScatterAboutTheirMeanCurveWithoutAModel) {
   // Force-weighted (Σ|·|/Σ|m|), 400 rows a run: a few % of 0.80 % either way, and the
   // interpolated run's noise counts at its neighbours' weight.
   EXPECT_NEAR(floors.at("warp"), 0.008, 0.0008);
+  // The runs' scales onto their mean are the specimens' up to one common factor (what
+  // bending-anisotropy's chord angles take a direction's curve level to scatter by).
+  const std::optional<RepeatBranches> b = repeat_branches(d.tensile[0]);
+  ASSERT_TRUE(b.has_value());
+  for (size_t r = 1; r < scales.size(); ++r)
+    EXPECT_NEAR(b->scales[0] / b->scales[r], scales[r] / scales[0], 0.002) << r;
 }
 
 // ---- the held-out folds --------------------------------------------------------------------
