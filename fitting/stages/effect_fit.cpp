@@ -788,7 +788,9 @@ class EffectFit final : public FitStage {
       Eigen::VectorXd se(static_cast<Eigen::Index>(bends.size()));
       // Satterthwaite's degrees of freedom of the summed variances: the overhangs' shares one
       // pooled estimate (noise_dof), each direction's level its own (n − 1).
+      // Satterthwaite's ν is at most the estimates' dof summed (and is that when one dominates).
       double overhangs = 0, levels = 0, levels_over_dof = 0;
+      int dof_sum = noise_dof;
       for (size_t j = 0; j < bends.size(); ++j) {
         const double overhang = chord_angle_error(context, bends[j], neutral, relative_sd);
         const LevelNoise level = curve_level_error(context, bends[j], neutral);
@@ -796,9 +798,11 @@ class EffectFit final : public FitStage {
         overhangs += overhang * overhang;
         levels += level.se * level.se;
         if (level.dof > 0) levels_over_dof += std::pow(level.se, 4) / level.dof;
+        dof_sum += level.dof;
       }
-      const double total = overhangs + levels;
-      const int dof = std::max(1, static_cast<int>(total * total / (overhangs * overhangs / noise_dof + levels_over_dof)));
+      const double total = overhangs + levels, spread = overhangs * overhangs / noise_dof + levels_over_dof;
+      const int dof = spread > 0 ? std::clamp(static_cast<int>(std::min<double>(total * total / spread, dof_sum)), 1, dof_sum)
+                                 : noise_dof;
       const ScoreTest t = score_test_with_known_noise(r.cwiseQuotient(se), se.cwiseInverse().asDiagonal() * thickness,
                                                       se.cwiseInverse().asDiagonal() * candidate, dof);
       set_score(t, result);
