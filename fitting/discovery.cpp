@@ -1054,6 +1054,7 @@ const MaterialParameters& fold_baseline(DiscoverWork& work, const DiscoverFold& 
   const auto found = work.fold_baselines.find(f.name);
   if (found != work.fold_baselines.end()) return found->second;
   const std::string what = f.name + " baseline";
+  const std::string start = params_with_effects(*work.baseline, {}, work.file(what + ".yaml"), work.registry);
   Options fold;
   if (f.cantilevers_only) {
     // The tensile strips are not held out: the curves stay the baseline's. Refitted on one
@@ -1062,11 +1063,9 @@ const MaterialParameters& fold_baseline(DiscoverWork& work, const DiscoverFold& 
     // whose fold baseline missed its own chord angles by 14.3 % where the whole baseline missed
     // them by 3.49 %, so that any fitted ratio "held").
     if (work.progress) work.progress(0, "held-out check: " + what + " (the thickness refitted on that fold's cantilevers)");
-    const std::string start = params_with_effects(*work.baseline, {}, work.file(what + ".yaml"), work.registry);
     fold = thickness_refit_config(work, start);
   } else if (work.refit_fold_baselines) {
     if (work.progress) work.progress(0, "held-out check: " + what + " (the curves refitted from the baseline on that fold)");
-    const std::string start = params_with_effects(*work.baseline, {}, work.file(what + ".yaml"), work.registry);
     fold = curves_refit_config(work, start, false);
   } else {
     if (work.progress) work.progress(0, "held-out check: " + what + " (the protocol without effects on that fold)");
@@ -1094,7 +1093,7 @@ void add_resolution_errors(const DiscoverWork& work, const FitReport& baseline, 
   for (DiscoverGap& g : *gap) {
     if (!std::isfinite(g.repeat_floor)) continue;
     const auto test = std::find_if(work.dataset.tensile.begin(), work.dataset.tensile.end(),
-                                   [&](const TensileTest& t) { return t.label == g.test && !t.runs.empty(); });
+                                   [&](const TensileTest& x) { return x.label == g.test && !x.runs.empty(); });
     if (test == work.dataset.tensile.end()) continue;
     const RunData loading = measured_points(*test, test->runs.front(), config.data);
     const RunData* run = &loading;

@@ -785,24 +785,8 @@ class EffectFit final : public FitStage {
       rescale.rescale_with_thickness = true;
       residuals_at(neutral, {"thickness_m"}, rescale, predictors, &r, &thickness);
       residuals_at(neutral, effect_free, map_options, predictors, &unused, &candidate);
-      Eigen::VectorXd se(static_cast<Eigen::Index>(bends.size()));
-      // Satterthwaite's degrees of freedom of the summed variances: the overhangs' shares one
-      // pooled estimate (noise_dof), each direction's level its own (n − 1).
-      // Satterthwaite's ν is at most the estimates' dof summed (and is that when one dominates).
-      double overhangs = 0, levels = 0, levels_over_dof = 0;
-      int dof_sum = noise_dof;
-      for (size_t j = 0; j < bends.size(); ++j) {
-        const double overhang = chord_angle_error(context, bends[j], neutral, relative_sd);
-        const LevelNoise level = curve_level_error(context, bends[j], neutral);
-        se[static_cast<Eigen::Index>(j)] = std::hypot(overhang, level.se);
-        overhangs += overhang * overhang;
-        levels += level.se * level.se;
-        if (level.dof > 0) levels_over_dof += std::pow(level.se, 4) / level.dof;
-        dof_sum += level.dof;
-      }
-      const double total = overhangs + levels, spread = overhangs * overhangs / noise_dof + levels_over_dof;
-      const int dof = spread > 0 ? std::clamp(static_cast<int>(std::min<double>(total * total / spread, dof_sum)), 1, dof_sum)
-                                 : noise_dof;
+      int dof = 0;
+      const Eigen::VectorXd se = chord_angle_noise(context, bends, neutral, relative_sd, noise_dof, &dof);
       const ScoreTest t = score_test_with_known_noise(r.cwiseQuotient(se), se.cwiseInverse().asDiagonal() * thickness,
                                                       se.cwiseInverse().asDiagonal() * candidate, dof);
       set_score(t, result);
@@ -813,6 +797,33 @@ class EffectFit final : public FitStage {
       context.note("effect " + options_.effect + ": score test not evaluated: " + e.what());
     }
     return {};
+  }
+
+  // Each cantilever's chord-angle standard error (relative to θ̆): the overhangs' scatter and its
+  // direction's curve level in quadrature, from one solve at `params` each; *dof Satterthwaite's
+  // for the summed variances — the overhangs' share one pooled estimate (noise_dof), each
+  // direction's level its own (n − 1) — at most their dofs summed, the overhangs' own when no
+  // variance is measured.
+  static Eigen::VectorXd chord_angle_noise(const FitContext& context, const std::vector<BendTest>& bends,
+                                           const MaterialParameters& params, double relative_sd, int noise_dof,
+                                           int* dof) {
+    Eigen::VectorXd se(static_cast<Eigen::Index>(bends.size()));
+    double overhangs = 0, levels = 0, levels_over_dof = 0;
+    int dof_sum = noise_dof;
+    for (size_t j = 0; j < bends.size(); ++j) {
+      const double at = chord_angle(context, bends[j], params);
+      const double overhang = chord_angle_error(context, bends[j], params, at, relative_sd);
+      const LevelNoise level = curve_level_error(context, bends[j], params, at);
+      se[static_cast<Eigen::Index>(j)] = std::hypot(overhang, level.se);
+      overhangs += overhang * overhang;
+      levels += level.se * level.se;
+      if (level.dof > 0) levels_over_dof += std::pow(level.se, 4) / level.dof;
+      dof_sum += level.dof;
+    }
+    const double total = overhangs + levels, spread = overhangs * overhangs / noise_dof + levels_over_dof;
+    *dof = spread > 0 ? std::clamp(static_cast<int>(std::min<double>(total * total / spread, dof_sum)), 1, dof_sum)
+                      : noise_dof;
+    return se;
   }
 
   // A score test's statistic, degrees of freedom and p-values into the stage's record.
@@ -840,10 +851,10 @@ class EffectFit final : public FitStage {
   // relative to the measured angle: |dθ/dL| sd(L)/√n / θ̆, with sd(L) = L̄ times the overhangs'
   // relative sd pooled over the directions (`relative_sd`).
   static double chord_angle_error(const FitContext& context, const BendTest& b, const MaterialParameters& params,
-                                  double relative_sd) {
+                                  double at, double relative_sd) {
     BendTest longer = b;
     for (double& l : longer.overhang_mm) l += kOverhangStepMm;
-    const double at = chord_angle(context, b, params), beyond = chord_angle(context, longer, params);
+    const double beyond = chord_angle(context, longer, params);
     const double n = static_cast<double>(b.overhang_mm.size());
     return std::abs(beyond - at) / kOverhangStepMm * relative_sd * mean(b.overhang_mm) / std::sqrt(n) /
            b.chord_angle_deg;
@@ -863,7 +874,8 @@ class EffectFit final : public FitStage {
     double se = 0;
     int dof = 0;
   };
-  static LevelNoise curve_level_error(const FitContext& context, const BendTest& b, const MaterialParameters& params) {
+  static LevelNoise curve_level_error(const FitContext& context, const BendTest& b, const MaterialParameters& params,
+                                      double at) {
     const auto stage = std::find_if(context.fitted_curves.begin(), context.fitted_curves.end(),
                                     [&](const CurveStage& c) { return c.angle_deg == b.angle_deg; });
     if (stage == context.fitted_curves.end()) return {};
@@ -879,7 +891,7 @@ class EffectFit final : public FitStage {
     const double level_sd = std::sqrt(squares / (n - 1) / n);
     MaterialParameters stiffer = params;
     stiffer.*(stage->term->stiffness_member) *= 1 + kStiffnessStep;
-    const double slope = (chord_angle(context, b, stiffer) - chord_angle(context, b, params)) / std::log1p(kStiffnessStep);
+    const double slope = (chord_angle(context, b, stiffer) - at) / std::log1p(kStiffnessStep);
     return {std::abs(slope) * level_sd / b.chord_angle_deg, static_cast<int>(logs.size()) - 1};
   }
 
