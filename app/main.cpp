@@ -11,6 +11,7 @@
 #include "app/commands.hpp"
 #include "core/input_error.hpp"
 #include "core/sparse_cholesky.hpp"
+#include "core/temporary_directory.hpp"
 #include "app/program_registry.hpp"
 
 namespace {
@@ -38,6 +39,7 @@ void use_one_blas_thread() {
 
 int main(int argc, char** argv) {
   use_one_blas_thread();
+  twill::remove_temporary_directories_on_termination();  // an interrupted run leaves no scratch
   twill::Context context;
   context.scripts_dir = scripts_dir();
   CLI::App app{"twill: fabric tests -> simulation-ready cloth parameters\n"
