@@ -54,7 +54,12 @@ const std::map<std::pair<std::string, std::string>, std::string>& separating_dat
       {{"misalignment", "specimen scale"}, "lateral strain or a shear-angle measurement of each strip"},
       {{"curve-degree", "hysteresis"}, "unloading rows (an elastic curve unloads along its loading path)"},
       {{"curve-degree", "rate-dependence"}, "runs of one test at two or more crosshead speeds"},
-      {{"curve-degree", "poisson"}, "lateral strain columns"},
+      // Poisson is testable only with lateral strains, so they cannot be what is missing: a
+      // richer curve bends the contraction only where the curves leave their linear start, the
+      // coupling sets it from the first step (a tie read "needs: lateral strain columns" on data
+      // that had them, papers/discovery, poisson twin 4 at 10 %).
+      {{"curve-degree", "poisson"}, "more lateral-strain rows within the first percent of strain (where every "
+                                    "curve is still linear and the contraction is the coupling's alone)"},
       {{"curve-degree", "misalignment"}, "lateral strain or a shear-angle measurement of each strip"},
       {{"bending-anisotropy", "curve-degree"}, "cantilevers along warp and weft"},
   };
