@@ -207,7 +207,7 @@ Eigen::VectorXd draw_noise(const std::vector<RunNoise>& runs, Eigen::Index m, st
   return e;
 }
 
-// The calibrated p-value of `observed` (score_test.hpp): AR(1) noise per predictor's rows,
+// The calibrated p-value of `observed` (score_test.hpp): AR(1) noise per predictor's rows and the shared noise,
 // B replicates of T*.
 void calibrate(const ScoreBasis& basis, const Statistic& observed, const std::vector<Eigen::Index>& run_rows,
                const ScoreCalibration& calibration, ScoreTest* out) {
@@ -220,10 +220,15 @@ void calibrate(const ScoreBasis& basis, const Statistic& observed, const std::ve
     row += size;
   }
   if (row != observed.noise.size()) throw std::logic_error("score_test: the predictions do not cover the residuals");
+  const Eigen::MatrixXd& shared = calibration.shared_noise;
   std::mt19937_64 engine(calibration.seed);
+  std::normal_distribution<double> normal;
   int as_large = 0;
-  for (int b = 0; b < calibration.replicates; ++b)
-    as_large += statistic_of(basis, draw_noise(runs, row, &engine)).t >= observed.t;
+  for (int b = 0; b < calibration.replicates; ++b) {
+    Eigen::VectorXd e = draw_noise(runs, row, &engine);
+    if (shared.cols() > 0) e += shared * Eigen::VectorXd::NullaryExpr(shared.cols(), [&] { return normal(engine); });
+    as_large += statistic_of(basis, e).t >= observed.t;
+  }
   out->replicates = calibration.replicates;
   out->noise_correlation = correlation;
   out->p_value = (1.0 + as_large) / (1.0 + calibration.replicates);
@@ -255,6 +260,8 @@ ScoreTest score_test(const Eigen::VectorXd& r, const Eigen::MatrixXd& baseline, 
   if (baseline.rows() != r.size() || candidate.rows() != r.size() ||
       std::accumulate(run_rows.begin(), run_rows.end(), Eigen::Index{0}) != r.size())
     throw std::invalid_argument("score_test: the residuals, the directions and the runs' rows do not match");
+  if (calibration.shared_noise.cols() > 0 && calibration.shared_noise.rows() != r.size())
+    throw std::invalid_argument("score_test: the shared noise's rows do not match the residuals'");
   ScoreTest out;
   ScoreBasis basis = basis_of(baseline, candidate, &out);
   basis.remaining = r.size() - basis.q.cols() - out.dof;

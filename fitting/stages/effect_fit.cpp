@@ -218,17 +218,19 @@ class EffectFit final : public FitStage {
     std::vector<Eigen::VectorXd> predicted_without, predicted_with;
     const std::vector<double> without =
         errors_at_neutral(context, *configured, effect_free, map_options, predictors, force_runs, &predicted_without);
+    const Eigen::MatrixXd level_noise = lateral_level_noise(context, neutral_params(context, *configured), predictors);
     const std::vector<double> noise =
         bends() ? bend_score_at_neutral(context, *configured, effect_free, map_options, &result)
                 : score_at_neutral(context, *configured, free, effect_free.size(), map_options, predictors, force_runs,
-                                   &result);
+                                   level_noise, &result);
     if (free.size() > effect_free.size())
       fit_effect_first(context, effect_free, map_options, predictors, force_runs, result.resolution, t);
     const std::vector<double> with =
         fit_free(context, free, map_options, predictors, force_runs, result.resolution, t, &predicted_with);
     keep_curves(predictors, predicted_without, predicted_with, &result);
-    set_errors(tests, without, with, smaller_noise(noise, noise_at_fit(context, free, effect_free.size(), map_options,
-                                                                        predictors, force_runs)),
+    set_errors(tests, without, with,
+               smaller_noise(noise, noise_at_fit(context, free, effect_free.size(), map_options, predictors, force_runs,
+                                                 level_noise)),
                &result);
     record_parameters(context, context.params.effects[index], &result);
     note_unpinned(context, result);
@@ -696,7 +698,9 @@ class EffectFit final : public FitStage {
   }
 
   // The score test of the effect's unknowns (`free`'s first n_effect) at `params`, the other
-  // free names and the runs' specimen scales its baseline (core/score_test.hpp).
+  // free names and the runs' specimen scales its baseline (core/score_test.hpp); the
+  // calibration draws the curves' levels on the lateral strains (calibration.shared_noise,
+  // lateral_level_noise) beside each run's noise.
   static ScoreTest score_at(const FitContext& context, const MaterialParameters& params,
                             const std::vector<std::string>& free, size_t n_effect,
                             const ParameterMap::Options& map_options,
@@ -707,7 +711,13 @@ class EffectFit final : public FitStage {
     ParameterMap map(params, baseline_first, map_options);
     FitObjective objective(map, predictors);
     objective.set_scale_groups(context.scale_groups(force_runs, predictors.size()));
-    return score_test(objective, map.initial_x(), static_cast<int>(free.size() - n_effect), calibration);
+    // Counted in unknowns, not names: a curve's name is a pattern of several (eta3.*). Counted
+    // in names, the shape parameters of every curve after the first two fell to the candidate:
+    // poisson's test on a null twin had d = 8 for its 2 parameters, its curves' shapes judged on
+    // the lateral strains as if they were the effect (found 2026-12-05).
+    const std::vector<std::string> effect_names(free.begin(), free.begin() + static_cast<std::ptrdiff_t>(n_effect));
+    const int n_candidate = ParameterMap(params, effect_names, map_options).dimension();
+    return score_test(objective, map.initial_x(), map.dimension() - n_candidate, calibration);
   }
 
   // The noise per run at the fitted effect (ScoreTest::run_noise there, no calibration): at the
@@ -717,9 +727,14 @@ class EffectFit final : public FitStage {
   std::vector<double> noise_at_fit(FitContext& context, const std::vector<std::string>& free, size_t n_effect,
                                    const ParameterMap::Options& map_options,
                                    const std::vector<std::shared_ptr<Predictor>>& predictors,
-                                   const std::vector<const RunData*>& force_runs) const {
+                                   const std::vector<const RunData*>& force_runs,
+                                   const Eigen::MatrixXd& level_noise) const {
     try {
-      return score_at(context, context.params, free, n_effect, map_options, predictors, force_runs, {0}).run_noise;
+      ScoreCalibration none;
+      none.replicates = 0;
+      return with_level_floors(
+          score_at(context, context.params, free, n_effect, map_options, predictors, force_runs, none).run_noise,
+          level_noise, predictors);
     } catch (const std::runtime_error& e) {
       context.note("effect " + options_.effect + ": the noise at the fitted effect not evaluated: " + e.what());
     }
@@ -739,12 +754,15 @@ class EffectFit final : public FitStage {
   std::vector<double> score_at_neutral(FitContext& context, const ComponentChoice& configured,
                         const std::vector<std::string>& free, size_t n_effect, const ParameterMap::Options& map_options,
                         const std::vector<std::shared_ptr<Predictor>>& predictors,
-                        const std::vector<const RunData*>& force_runs, FitEffect* result) const {
+                        const std::vector<const RunData*>& force_runs, const Eigen::MatrixXd& level_noise,
+                        FitEffect* result) const {
     try {
+      ScoreCalibration calibration;
+      calibration.shared_noise = level_noise;
       const ScoreTest t = score_at(context, neutral_params(context, configured), free, n_effect, map_options, predictors,
-                                   force_runs, {});
+                                   force_runs, calibration);
       set_score(t, result);
-      return t.run_noise;
+      return with_level_floors(t.run_noise, level_noise, predictors);
     } catch (const std::runtime_error& e) {
       result->score = std::numeric_limits<double>::quiet_NaN();  // reported as not evaluated, and why
       context.note("effect " + options_.effect + ": score test not evaluated: " + e.what());
@@ -861,11 +879,9 @@ class EffectFit final : public FitStage {
   }
 
   // The noise a cantilever's chord angle carries from its direction's membrane stiffness: the
-  // curve of that direction sits at the geometric mean of its fit runs' specimen scales, off by
-  // sd(log s_r)/√n, and the bending stiffness τ³a/12 follows a — so the chord angle by
-  // |dθ/d log a| times that, relative to the measured angle (dof n − 1). The scales are the
-  // runs' own onto their mean (repeat_branches, no model: the stage may run after a start-from
-  // that kept none). Without it, null data whose warp and weft curves missed their truth by
+  // curve of that direction is off by its level's error (curve_level), and the bending
+  // stiffness τ³a/12 follows a — so the chord angle by |dθ/d log a| times that, relative to the
+  // measured angle (dof n − 1). Without it, null data whose warp and weft curves missed their truth by
   // 14 % and 6 % (3 strips each at 20 % scatter) were named anisotropic (papers/discovery,
   // bending twin 4; docs/effects/bending-anisotropy.md, "What the chord angles cannot tell from
   // anisotropy"). None (0, 0) without a fitted curve at the cantilever's angle or with fewer
@@ -879,20 +895,91 @@ class EffectFit final : public FitStage {
     const auto stage = std::find_if(context.fitted_curves.begin(), context.fitted_curves.end(),
                                     [&](const CurveStage& c) { return c.angle_deg == b.angle_deg; });
     if (stage == context.fitted_curves.end()) return {};
+    const LevelNoise level = curve_level(context, b.angle_deg);
+    if (level.dof == 0) return {};
+    MaterialParameters stiffer = params;
+    stiffer.*(stage->term->stiffness_member) *= 1 + kStiffnessStep;
+    const double slope = (chord_angle(context, b, stiffer) - at) / std::log1p(kStiffnessStep);
+    return {std::abs(slope) * level.se / b.chord_angle_deg, level.dof};
+  }
+
+  // The standard error of the level of the curve fitted at `angle_deg` (log of its stiffness):
+  // the curve sits at the geometric mean of its fit runs' scales, off by sd(log s_r)/√n with
+  // n − 1 dof. The scales are the runs' own onto their mean (repeat_branches, no model: the stage
+  // may run after a start-from that kept none). None (0, 0) with fewer than two runs.
+  static LevelNoise curve_level(const FitContext& context, double angle_deg) {
     std::vector<double> logs;
     for (const TensileTest& test : context.dataset().tensile)
-      if (test.role == TestRole::Fit && test.angle_deg == b.angle_deg)
+      if (test.role == TestRole::Fit && test.angle_deg == angle_deg)
         if (const std::optional<RepeatBranches> repeats = repeat_branches(test))
           for (double scale : repeats->scales) logs.push_back(std::log(scale));
     if (logs.size() < 2) return {};
     const double n = static_cast<double>(logs.size()), m = mean(logs);
     double squares = 0;
     for (double l : logs) squares += (l - m) * (l - m);
-    const double level_sd = std::sqrt(squares / (n - 1) / n);
-    MaterialParameters stiffer = params;
-    stiffer.*(stage->term->stiffness_member) *= 1 + kStiffnessStep;
-    const double slope = (chord_angle(context, b, stiffer) - at) / std::log1p(kStiffnessStep);
-    return {std::abs(slope) * level_sd / b.chord_angle_deg, static_cast<int>(logs.size()) - 1};
+    return {std::sqrt(squares / (n - 1) / n), static_cast<int>(logs.size()) - 1};
+  }
+
+  // The curves' levels on the lateral strains (docs/effects/poisson.md, "The curves' level in the
+  // lateral strains' noise"): every fitted curve's stiffness is off its truth by its level's
+  // error δ_k (curve_level), and a strip's contraction follows the stiffnesses' ratios (a weft
+  // strip's by a12/a11), which no specimen scale absorbs — the lateral strains have none. So
+  // every lateral row of every run shares the noise J_L δ, J_L = ∂r_L/∂log a_k (the objective's
+  // exact Jacobian in the stiffnesses, the tie of a12 included). Returns L = J_L diag(se_k) on
+  // the predictors' rows (m × k, zero off the lateral rows; the lateral predictors follow the
+  // force runs'), no columns without lateral rows or a curve with two runs. Measured without
+  // it: a null twin whose weft curves' ratio a22/a11 came out 0.918 (one level sd at 10 %
+  // scatter) missed the weft's lateral strains by 8.86 %, and poisson was named (p 0.018).
+  Eigen::MatrixXd lateral_level_noise(FitContext& context, const MaterialParameters& params,
+                                      const std::vector<std::shared_ptr<Predictor>>& predictors) const {
+    Eigen::Index rows = 0, first = 0;
+    for (size_t i = 0; i < predictors.size(); ++i) {
+      if (i == runs_.size()) first = rows;
+      rows += predictors[i]->measured().size();
+    }
+    std::vector<std::string> stiffnesses;
+    std::vector<double> se;
+    for (const CurveStage& c : context.fitted_curves)
+      if (const LevelNoise level = curve_level(context, c.angle_deg); level.dof > 0) {
+        stiffnesses.push_back(c.term->stiffness);
+        se.push_back(level.se);
+      }
+    if (lateral_runs_.empty() || stiffnesses.empty()) return {};
+    const std::vector<std::shared_ptr<Predictor>> laterals(
+        predictors.begin() + static_cast<std::ptrdiff_t>(runs_.size()),
+        predictors.begin() + static_cast<std::ptrdiff_t>(runs_.size() + lateral_runs_.size()));
+    ParameterMap map(params, stiffnesses, {});
+    FitObjective objective(map, laterals);
+    Eigen::VectorXd r;
+    Eigen::MatrixXd jacobian;  // ∂r/∂x, x_k = a_k/a_k0: ∂r/∂log a_k at x = 1
+    objective.residuals(map.initial_x(), &r, &jacobian);
+    if (!std::isfinite(r.sum())) {
+      context.note("effect " + options_.effect + ": the curves' levels left out of the lateral strains' noise: " +
+                   objective.last_failure());
+      return {};
+    }
+    Eigen::MatrixXd level = Eigen::MatrixXd::Zero(rows, jacobian.cols());
+    level.middleRows(first, jacobian.rows()) =
+        jacobian * Eigen::Map<const Eigen::VectorXd>(se.data(), static_cast<Eigen::Index>(se.size())).asDiagonal();
+    return level;
+  }
+
+  // Each run's floor with the curves' levels (`level`, lateral_level_noise) added in
+  // quadrature: its rows' mean |J_L δ|, √(2/π) sd per row, averaged over the run's rows. The
+  // force runs' floors are unchanged (their scales absorb a level).
+  static std::vector<double> with_level_floors(std::vector<double> noise, const Eigen::MatrixXd& level,
+                                               const std::vector<std::shared_ptr<Predictor>>& predictors) {
+    if (level.cols() == 0 || noise.size() != predictors.size()) return noise;
+    Eigen::Index row = 0;
+    for (size_t i = 0; i < predictors.size(); ++i) {
+      const Eigen::Index n = predictors[i]->measured().size();
+      if (n > 0) {
+        const double shared = std::sqrt(2 / M_PI) * level.middleRows(row, n).rowwise().norm().mean();
+        noise[i] = std::hypot(noise[i], shared);
+      }
+      row += n;
+    }
+    return noise;
   }
 
   // The repeated overhangs' relative sd, pooled over the directions (Σ (n − 1) degrees of

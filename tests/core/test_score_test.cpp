@@ -217,6 +217,55 @@ TEST(ScoreTest, WithTheNoiseMeasuredApartHasItsNominalSizeAndFindsTheTerm) {
                std::invalid_argument);
 }
 
+// Noise shared by many rows (the curves' levels on the lateral strains: one draw moves every
+// run's rows alike) is not the AR(1) noise of any run: left out of the calibration, a level
+// that lines up with the candidate reads as the candidate; drawn with it (ScoreCalibration::
+// shared_noise), the test keeps its size. Three runs of 20 rows, each with its own intercept
+// (a specimen scale); the candidate a ramp over the last two runs; the level a ramp over the
+// same runs with a different share per run, its sd 3 times the rows' noise.
+TEST(ScoreTest, NoiseSharedByTheRunsIsDrawnInTheCalibrationAndKeepsTheSize) {
+  constexpr int kRuns = 3, kRows = 20, kDraws = 400;
+  constexpr double kLevelSd = 3, kTerm = 20;
+  const Eigen::Index m = kRuns * kRows;
+  Eigen::MatrixXd baseline = Eigen::MatrixXd::Zero(m, kRuns), candidate = Eigen::MatrixXd::Zero(m, 1),
+                  level = Eigen::MatrixXd::Zero(m, 1);
+  for (int r = 0; r < kRuns; ++r)
+    for (int i = 0; i < kRows; ++i) {
+      const Eigen::Index row = r * kRows + i;
+      const double ramp = static_cast<double>(i) / kRows;
+      baseline(row, r) = 1;
+      if (r > 0) candidate(row, 0) = ramp;
+      level(row, 0) = kLevelSd * ramp * (r == 0 ? 0.2 : r == 1 ? 1.0 : 0.7);
+    }
+  const std::vector<Eigen::Index> run_rows(kRuns, kRows);
+  ScoreCalibration without, with;
+  without.replicates = with.replicates = 199;
+  with.shared_noise = level;
+  std::mt19937_64 engine(13);
+  std::normal_distribution<double> normal;
+  int rejected_without = 0, rejected_with = 0, found = 0;
+  for (int k = 0; k < kDraws; ++k) {
+    const Eigen::VectorXd r =
+        level * normal(engine) + Eigen::VectorXd::NullaryExpr(m, [&] { return normal(engine); });
+    without.seed = with.seed = 100 + k;
+    rejected_without += score_test(r, baseline, candidate, run_rows, without).p_value < 0.05;
+    rejected_with += score_test(r, baseline, candidate, run_rows, with).p_value < 0.05;
+    found += score_test(r + kTerm * candidate.col(0), baseline, candidate, run_rows, with).p_value < 0.05;
+  }
+  std::printf("[measured] score test with a shared level (sd %g x the noise): %d of %d rejected at 5 %% without it "
+              "in the calibration, %d with it; a term of %g found in %d\n", kLevelSd, rejected_without, kDraws,
+              rejected_with, kTerm, found);
+  // Binomial(400, 0.05): 20 ± 4.4; three standard deviations above. Without the level the
+  // test is not calibrated at all (a level of 3 sd lines up with the candidate). With it the
+  // test is conservative (the runs' AR(1) noise is fitted to a residual that holds the level's
+  // part off the candidate), but a term several times the level's size is still found.
+  EXPECT_LE(rejected_with, 33);
+  EXPECT_GT(rejected_without, 4 * 33);
+  EXPECT_GT(found, kDraws * 3 / 4);
+  with.shared_noise = Eigen::MatrixXd::Zero(m - 1, 1);
+  EXPECT_THROW(score_test(Eigen::VectorXd::Zero(m), baseline, candidate, run_rows, with), std::invalid_argument);
+}
+
 // The candidate's directions beyond the baseline are counted from the signature's singular
 // values, not from the eigenvalues of its Gram matrix, whose round-off (ε‖SᵀS‖) is far above
 // the rank tolerance squared: with two observations and one baseline direction (the two

@@ -174,6 +174,9 @@ void expect_significant_score(const FitEffect& e) {
   std::printf("[measured] %s: score T %.4g (d %d), p (iid) %.2g, p (calibrated) %.2g, noise phi %.2f\n",
               e.effect.c_str(), e.score, e.score_dof, e.score_p_value_iid, e.score_p_value, e.score_noise_correlation);
   EXPECT_GT(e.score_dof, 0);
+  // The effect's own directions only: the curves' shapes are the baseline's (a curve's name is
+  // a pattern of several unknowns; counted as one, the shapes fell to the candidate).
+  EXPECT_LE(e.score_dof, static_cast<int>(e.parameters.size()));
   EXPECT_LT(e.score_p_value_iid, 1e-6);
   EXPECT_LT(e.score_p_value, 0.01);
   // The per-test breakdown: every run in one test, the runs' mean is the stage's, and each test
@@ -264,6 +267,49 @@ TEST(FitWithEffects, PoissonFromLateralStrains) {
   EXPECT_NEAR(fitted(report, "poisson.coupling_ratio"), 0.3, 1e-3);
   EXPECT_NEAR(fitted(report, "poisson.coupling_curvature"), 8.0, 0.5);
   fs::remove_all(folder);
+}
+
+// The curves' levels in the lateral strains' floor (effect_fit.cpp lateral_level_noise;
+// docs/effects/poisson.md): each curve sits at its strips' mean scale, off its truth by
+// sd(log s)/√n, and a strip's contraction follows the stiffnesses' ratios, which no specimen
+// scale absorbs. Noiseless strips at the paper's coupling, three per test: scattered by ±10 %
+// the lateral strains' floors hold that level's share; alike (every scale 1) they hold none.
+TEST(FitWithEffects, TheLateralStrainsFloorHoldsTheCurvesLevels) {
+  const MaterialParameters truth = truth_with(default_choice(registry_category::kEffect, "poisson"));
+  std::vector<double> loading;
+  for (int i = 1; i <= 8; ++i) loading.push_back(0.5 * i);
+  const std::vector<double> aligned = {0, 0, 0}, scattered = {0.9, 1.0, 1.1}, alike = {1, 1, 1};
+  const auto floors_with = [&](const std::string& name, const std::vector<double>& scales) {
+    const std::string folder = write_dataset(name, truth,
+                                             {{"warp", 90, 300, loading, aligned, scales},
+                                              {"weft", 0, 300, loading, aligned, scales},
+                                              {"bias", 45, 300, loading, aligned, scales}});
+    Options config = config_with("poisson", ", observable: both");
+    // Curves of two terms: several unknowns per curve name (eta3.*), all of them the baseline's.
+    apply_overrides(config, fit_config_schema(), &registry(),
+                    {"repeats.rule=all", "repeats.scale=per-run", "protocol[0].max_degree=2", "protocol[0].target_error=1e-9",
+                     "protocol[0].min_improvement=0"});
+    const FitReport report = run_fit(read_dataset(folder), config, registry(), {});
+    fs::remove_all(folder);
+    EXPECT_LE(report.effects.at(0).score_dof, static_cast<int>(report.effects.at(0).parameters.size()));
+    std::map<std::string, double> floors;
+    for (const FitEffectTest& t : report.effects.at(0).tests) floors[t.test] = t.noise_floor;
+    return floors;
+  };
+  const std::map<std::string, double> level = floors_with("poisson_levels", scattered),
+                                      none = floors_with("poisson_no_levels", alike);
+  // sd(log s) = 0.1004 over 3 strips: each curve's level is off by se = 0.0580. With the tie
+  // a12 = ½ min(a11, a22) = ½ a22 (the truth's a22 < a11), the strip along a22 (warp) contracts
+  // by a12/a22 = ½ whatever the levels, the strip along a11 (weft) by ½ a22/a11: by √2 se, on
+  // average √(2/π) √2 se = 6.54 % (the rest of the law's terms move it by a few % of that).
+  const double se = 0.1004 / std::sqrt(3.0), weft_floor = std::sqrt(2 / M_PI) * std::sqrt(2.0) * se;
+  for (const std::string test : {"warp lateral strain", "weft lateral strain"})
+    std::printf("[measured] %s floor: %.3f %% with the strips scattered by 10 %%, %.2e %% alike\n", test.c_str(),
+                100 * level.at(test), 100 * none.at(test));
+  EXPECT_NEAR(level.at("weft lateral strain"), weft_floor, 0.1 * weft_floor);
+  EXPECT_LT(level.at("warp lateral strain"), 0.1 * weft_floor);
+  EXPECT_LT(none.at("weft lateral strain"), 1e-5);
+  EXPECT_LT(none.at("warp lateral strain"), 1e-5);
 }
 
 // Data whose coupling curvature lies beyond the effect's bound (η2''(0) = −15 < −10, simulated
