@@ -237,7 +237,7 @@ void calibrate(const ScoreBasis& basis, const Statistic& observed, const std::ve
 }  // namespace
 
 ScoreTest score_test(FitObjective& objective, const Eigen::VectorXd& x, int n_baseline,
-                     const ScoreCalibration& calibration) {
+                     const ScoreCalibration& calibration, const Eigen::MatrixXd& known_directions) {
   const int n = objective.dimension();
   if (n_baseline < 0 || n_baseline >= n)
     throw std::invalid_argument("score_test: " + std::to_string(n_baseline) + " baseline unknowns of " +
@@ -248,8 +248,12 @@ ScoreTest score_test(FitObjective& objective, const Eigen::VectorXd& x, int n_ba
   if (!std::isfinite(r.sum()))
     throw std::runtime_error("score_test: the baseline could not be evaluated: " + objective.last_failure());
   const Eigen::MatrixXd scales = objective.scale_columns();
-  Eigen::MatrixXd baseline(r.size(), n_baseline + scales.cols());
-  baseline << jacobian.leftCols(n_baseline), scales;
+  if (known_directions.cols() > 0 && known_directions.rows() != r.size())
+    throw std::invalid_argument("score_test: the known directions' rows do not match the residuals'");
+  Eigen::MatrixXd baseline(r.size(), n_baseline + scales.cols() + known_directions.cols());
+  baseline.leftCols(n_baseline) = jacobian.leftCols(n_baseline);
+  baseline.middleCols(n_baseline, scales.cols()) = scales;
+  baseline.rightCols(known_directions.cols()) = known_directions;
   std::vector<Eigen::Index> run_rows;
   for (const Eigen::VectorXd& p : objective.last_predictions()) run_rows.push_back(p.size());
   return score_test(r, baseline, jacobian.rightCols(n - n_baseline), run_rows, calibration);

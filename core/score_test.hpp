@@ -80,10 +80,13 @@ struct ScoreCalibration {
 };
 
 /// The score test of the unknowns n_baseline… of `objective` (the candidate's) at x, where the
-/// first n_baseline unknowns are the baseline's, fitted there. Evaluates the objective's
-/// residuals and Jacobian once; throws std::runtime_error when the evaluation fails.
+/// first n_baseline unknowns are the baseline's, fitted there. `known_directions` (m × q, or
+/// none) join the baseline's: patterns in the residuals that no unknown carries and the data
+/// cannot tell from the candidate, which must not count for it (the mesh's own error on the
+/// lateral strains). Evaluates the objective's residuals and Jacobian once; throws
+/// std::runtime_error when the evaluation fails.
 ScoreTest score_test(FitObjective& objective, const Eigen::VectorXd& x, int n_baseline,
-                     const ScoreCalibration& calibration = {});
+                     const ScoreCalibration& calibration = {}, const Eigen::MatrixXd& known_directions = {});
 /// The same test from its parts, for directions no FitObjective unknown carries (the
 /// misalignment effect's per-strip offsets on the validation strips): the residuals r (m), the
 /// baseline's directions (m × n_b, the specimen scales' among them), the candidate's (m × d),

@@ -167,6 +167,32 @@ TEST(ScoreTest, FindsTheCandidatesTermWhenTheDataHaveIt) {
   EXPECT_GT(t.signature.norm(), 0.0);
 }
 
+// A known direction (a pattern no unknown carries, e.g. the mesh's own error on the lateral
+// strains) joins the baseline: the candidate's term found above scores nothing once its own
+// pattern is known, and half of it still leaves the candidate its direction.
+TEST(ScoreTest, AKnownDirectionJoinsTheBaselineAndCannotCountForTheCandidate) {
+  std::mt19937_64 engine(12);
+  MaterialParameters truth = start();
+  truth.a22_Pa *= 3;
+  const auto runs = noisy_runs(truth, 2, {}, &engine);
+  ParameterMap::Options options;
+  options.tie_a12 = false;
+  FitObjective objective(ParameterMap(start(), {"a11_Pa", "a22_Pa"}, options), runs);
+  Eigen::VectorXd r;
+  Eigen::MatrixXd j;
+  objective.residuals(objective.map().initial_x(), &r, &j);
+  const Eigen::MatrixXd own = j.rightCols(1);
+  Eigen::MatrixXd half_of_it = own;
+  half_of_it.topRows(kStrains.size()).setZero();  // the pattern on the second run only
+  const ScoreTest absorbed = score_test(objective, objective.map().initial_x(), 1, {0}, own);
+  const ScoreTest kept = score_test(objective, objective.map().initial_x(), 1, {0}, half_of_it);
+  EXPECT_EQ(absorbed.dof, 0);
+  EXPECT_EQ(absorbed.statistic, 0.0);
+  EXPECT_EQ(kept.dof, 1);
+  EXPECT_LT(kept.p_value_iid, 1e-6);
+  EXPECT_THROW(score_test(objective, objective.map().initial_x(), 1, {0}, own.topRows(3)), std::invalid_argument);
+}
+
 TEST(ScoreTest, ACandidateThatOnlyRescalesRunsScoresNothingWithSpecimenScales) {
   // The toy's density multiplies every prediction: with the runs' specimen scales in the
   // baseline it has no direction of its own; without them it has one.
