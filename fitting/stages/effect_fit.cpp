@@ -52,6 +52,11 @@ constexpr double kOverhangStepMm = 1.0;
 /// chord angle is smooth in the bending stiffness, and its level's noise (several %) needs the
 /// slope to the percent.
 constexpr double kStiffnessStep = 0.01;
+/// The offset a strip is cut at to measure the cuts' pattern in its lateral strain [deg]: a
+/// typical cutting error of a hand-cut strip, and the pattern is the same for any small one
+/// (it goes as the offset's square: an 8×12 warp strip's contraction grows by 0.9…6.6 % from 1
+/// to 12 mm at 1°, by 2.6…19.7 % at 1.7°, 2.9× for 1.7² = 2.89).
+constexpr double kCutProbeDeg = 1.0;
 /// An effect parameter whose neutral value is 0 has no scale of its own: x = 1 stands for this
 /// fraction of its range (hysteresis' frictions: 100 N/m of [0, 1e5], a few % of a strip's
 /// force per width).
@@ -220,7 +225,7 @@ class EffectFit final : public FitStage {
         errors_at_neutral(context, *configured, effect_free, map_options, predictors, force_runs, &predicted_without);
     const MaterialParameters neutral = neutral_params(context, *configured);
     const LateralTerms lateral{lateral_level_noise(context, neutral, predictors),
-                               lateral_mesh_error(context, level, neutral, predictors)};
+                               lateral_known_directions(context, level, neutral, predictors)};
     const std::vector<double> noise =
         bends() ? bend_score_at_neutral(context, *configured, effect_free, map_options, &result)
                 : score_at_neutral(context, *configured, free, effect_free.size(), map_options, predictors, force_runs,
@@ -247,11 +252,11 @@ class EffectFit final : public FitStage {
   bool bends() const { return options_.observable == "chord_angle_deg"; }
 
   // What the lateral strains carry beside each run's noise, on the predictors' rows (none
-  // without lateral rows): the curves' levels (lateral_level_noise) and the mesh's own error
-  // (lateral_mesh_error).
+  // without lateral rows): the curves' levels (lateral_level_noise) and the mesh's and the
+  // cuts' patterns (lateral_known_directions).
   struct LateralTerms {
     Eigen::MatrixXd level;
-    Eigen::MatrixXd mesh;
+    Eigen::MatrixXd known;
   };
 
   // Before the joint fit (with_curves): the effect's own parameters first, from its neutral
@@ -708,8 +713,8 @@ class EffectFit final : public FitStage {
   }
 
   // The score test of the effect's unknowns (`free`'s first n_effect) at `params`, the other
-  // free names, the runs' specimen scales and the mesh's error on the lateral strains
-  // (`mesh_error`, lateral_mesh_error) its baseline (core/score_test.hpp); the calibration
+  // free names, the runs' specimen scales and the lateral strains' known patterns
+  // (`known`, lateral_known_directions) its baseline (core/score_test.hpp); the calibration
   // draws the curves' levels on the lateral strains (calibration.shared_noise,
   // lateral_level_noise) beside each run's noise.
   static ScoreTest score_at(const FitContext& context, const MaterialParameters& params,
@@ -717,7 +722,7 @@ class EffectFit final : public FitStage {
                             const ParameterMap::Options& map_options,
                             const std::vector<std::shared_ptr<Predictor>>& predictors,
                             const std::vector<const RunData*>& force_runs, const ScoreCalibration& calibration,
-                            const Eigen::MatrixXd& mesh_error) {
+                            const Eigen::MatrixXd& known) {
     std::vector<std::string> baseline_first(free.begin() + static_cast<std::ptrdiff_t>(n_effect), free.end());
     baseline_first.insert(baseline_first.end(), free.begin(), free.begin() + static_cast<std::ptrdiff_t>(n_effect));
     ParameterMap map(params, baseline_first, map_options);
@@ -729,7 +734,7 @@ class EffectFit final : public FitStage {
     // the lateral strains as if they were the effect (found 2026-12-05).
     const std::vector<std::string> effect_names(free.begin(), free.begin() + static_cast<std::ptrdiff_t>(n_effect));
     const int n_candidate = ParameterMap(params, effect_names, map_options).dimension();
-    return score_test(objective, map.initial_x(), map.dimension() - n_candidate, calibration, mesh_error);
+    return score_test(objective, map.initial_x(), map.dimension() - n_candidate, calibration, known);
   }
 
   // The noise per run at the fitted effect (ScoreTest::run_noise there, no calibration): at the
@@ -745,7 +750,7 @@ class EffectFit final : public FitStage {
       ScoreCalibration none;
       none.replicates = 0;
       return with_level_floors(
-          score_at(context, context.params, free, n_effect, map_options, predictors, force_runs, none, lateral.mesh)
+          score_at(context, context.params, free, n_effect, map_options, predictors, force_runs, none, lateral.known)
               .run_noise,
           lateral.level, predictors);
     } catch (const std::runtime_error& e) {
@@ -773,7 +778,7 @@ class EffectFit final : public FitStage {
       ScoreCalibration calibration;
       calibration.shared_noise = lateral.level;
       const ScoreTest t = score_at(context, neutral_params(context, configured), free, n_effect, map_options, predictors,
-                                   force_runs, calibration, lateral.mesh);
+                                   force_runs, calibration, lateral.known);
       set_score(t, result);
       return with_level_floors(t.run_noise, lateral.level, predictors);
     } catch (const std::runtime_error& e) {
@@ -977,51 +982,62 @@ class EffectFit final : public FitStage {
     return level;
   }
 
-  // The mesh's own error on the lateral strains: per lateral test a direction, its runs' rows
-  // (p_finer − p)/p̆ with p the prediction at the stage's level and p_finer one level finer
-  // (m × tests, zero off the lateral rows; none without lateral rows, with a note when a
-  // finer strip fails). Generated data are simulated finer than they are fitted, as real data
-  // are continuous, and a strip's contraction converges slowly near the clamps' first strains
-  // (an 8×12 strip's lateral strain is 3.4 % short of a 16×24 strip's at 2 mm, within 0.5 % from
-  // 8 mm on: papers/hidden_effects/README.md, "Poisson"), a shape the coupling curvature takes
-  // up. As baseline directions the mesh's pattern cannot count for a candidate. Measured without
-  // it: a cut-free null twin named poisson at p 5e-4 with η2''(0) 5.3 (the aligned twins' mesh
-  // bias gave 3.4–5.1).
-  Eigen::MatrixXd lateral_mesh_error(FitContext& context, int level, const MaterialParameters& params,
-                                     const std::vector<std::shared_ptr<Predictor>>& predictors) const {
+  // Patterns the lateral strains carry that no unknown does and the data cannot tell from a
+  // coupling, as directions of the score test's baseline (m × 2·tests, zero off the lateral
+  // rows; none without lateral rows, with a note when a strip fails). Per lateral test:
+  // - the mesh's own error, its runs' rows (p_finer − p)/p̆, p_finer the strip one level finer.
+  //   Generated data are simulated finer than they are fitted, as real data are continuous,
+  //   and a strip's contraction converges slowly near the first strains (an 8×12 strip's is
+  //   3.4 % short of a 16×24 strip's at 2 mm, within 0.5 % from 8 mm on), a shape the coupling
+  //   curvature takes up: a cut-free null twin named poisson at p 5e-4 with η2''(0) 5.3 (the
+  //   aligned twins' mesh bias gave 3.4–5.1; papers/hidden_effects/README.md, "Poisson"); with
+  //   this direction p 0.32;
+  // - the strips' cutting offsets, (p(θ + kCutProbeDeg) − p)/p̆. A cut moves a warp or weft
+  //   strip's contraction evenly in the offset (±θ alike) and as its square, so unknown cuts
+  //   bias every strip the same way, by a pattern that grows with the strain (kCutProbeDeg).
+  //   Measured on a 1°-cut null twin: poisson's p 5e-4 → 0.0055, still named — the cuts are
+  //   not fixed by it (a column per run instead: p 0.001; docs/effects/poisson.md).
+  Eigen::MatrixXd lateral_known_directions(FitContext& context, int level, const MaterialParameters& params,
+                                           const std::vector<std::shared_ptr<Predictor>>& predictors) const {
     if (lateral_runs_.empty()) return {};
     Eigen::Index rows = 0, row = 0;
     for (size_t i = 0; i < predictors.size(); ++i) {
       if (i == runs_.size()) row = rows;
       rows += predictors[i]->measured().size();
     }
-    std::vector<std::string> tests;  // each lateral test's column
-    Eigen::MatrixXd mesh = Eigen::MatrixXd::Zero(rows, 0);
+    std::vector<std::string> tests;  // each lateral test's pair of columns
+    Eigen::MatrixXd known = Eigen::MatrixXd::Zero(rows, 0);
     for (size_t j = 0; j < lateral_runs_.size(); ++j) {
       const std::shared_ptr<Predictor>& at = predictors[runs_.size() + j];
-      Eigen::VectorXd coarse, finer;
+      RunData cut = lateral_runs_[j];
+      cut.strip_angle_deg = FitContext::strip_angle(cut) + kCutProbeDeg;
+      Eigen::VectorXd nominal, finer, offset;
       std::string message;
       const bool solved =
-          at->predict(params, {}, &coarse, nullptr, &message) &&
+          at->predict(params, {}, &nominal, nullptr, &message) &&
           context.tensile_experiment(lateral_runs_[j], level + 1, params, kLateralExperiment)
-              ->predict(params, {}, &finer, nullptr, &message);
-      if (!solved || finer.size() != coarse.size()) {
-        context.note("effect " + options_.effect + ": the mesh's error on the lateral strains not measured: " + message);
+              ->predict(params, {}, &finer, nullptr, &message) &&
+          context.tensile_experiment(cut, level, params, kLateralExperiment)->predict(params, {}, &offset, nullptr,
+                                                                                      &message);
+      if (!solved || finer.size() != nominal.size() || offset.size() != nominal.size()) {
+        context.note("effect " + options_.effect + ": the mesh's and the cuts' patterns in the lateral strains not "
+                     "measured: " + message);
         return {};
       }
       const std::string& test = lateral_runs_[j].test->label;
-      auto column = std::find(tests.begin(), tests.end(), test);
-      if (column == tests.end()) {
+      auto found = std::find(tests.begin(), tests.end(), test);
+      if (found == tests.end()) {
         tests.push_back(test);
-        mesh.conservativeResize(Eigen::NoChange, mesh.cols() + 1);
-        mesh.rightCols(1).setZero();
-        column = tests.end() - 1;
+        known.conservativeResize(Eigen::NoChange, known.cols() + 2);
+        known.rightCols(2).setZero();
+        found = tests.end() - 1;
       }
-      const Eigen::Index n = coarse.size();
-      mesh.col(column - tests.begin()).segment(row, n) = (finer - coarse).cwiseQuotient(at->measured());
+      const Eigen::Index n = nominal.size(), column = 2 * (found - tests.begin());
+      known.col(column).segment(row, n) = (finer - nominal).cwiseQuotient(at->measured());
+      known.col(column + 1).segment(row, n) = (offset - nominal).cwiseQuotient(at->measured());
       row += n;
     }
-    return mesh;
+    return known;
   }
 
   // Each run's floor with the curves' levels (`level`, lateral_level_noise) added in
