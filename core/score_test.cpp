@@ -253,7 +253,7 @@ ScoreTest score_test(FitObjective& objective, const Eigen::VectorXd& x, int n_ba
   Eigen::MatrixXd baseline(r.size(), n_baseline + scales.cols() + known_directions.cols());
   baseline.leftCols(n_baseline) = jacobian.leftCols(n_baseline);
   baseline.middleCols(n_baseline, scales.cols()) = scales;
-  baseline.rightCols(known_directions.cols()) = known_directions;
+  if (known_directions.cols() > 0) baseline.rightCols(known_directions.cols()) = known_directions;  // none: 0 × 0
   std::vector<Eigen::Index> run_rows;
   for (const Eigen::VectorXd& p : objective.last_predictions()) run_rows.push_back(p.size());
   return score_test(r, baseline, jacobian.rightCols(n - n_baseline), run_rows, calibration);
