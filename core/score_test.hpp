@@ -73,8 +73,8 @@ struct ScoreCalibration {
   std::uint64_t seed = 20170728;  ///< SCA 2017's first day; any fixed value
   /// Noise shared by many rows, drawn once per replicate beside each run's AR(1): e* += L z,
   /// z ~ N(0, I), L (m × k) the square root of its covariance on the residuals' rows — the
-  /// curves' levels on the lateral strains (L = J_L V^(1/2), docs/effects/poisson.md, "The
-  /// curves' level in the lateral strains' noise"). No columns: none. A baseline direction
+  /// curves' levels on the lateral strains (L = J_L V^(1/2), docs/discovery.md §2, "The lateral
+  /// strains' noise beyond each run's"). No columns: none. A baseline direction
   /// would absorb it whole; this is a random effect of known size, which the data cannot refit.
   Eigen::MatrixXd shared_noise;
 };

@@ -225,7 +225,7 @@ class EffectFit final : public FitStage {
         errors_at_neutral(context, *configured, effect_free, map_options, predictors, force_runs, &predicted_without);
     const MaterialParameters neutral = neutral_params(context, *configured);
     const LateralTerms lateral{lateral_level_noise(context, neutral, predictors),
-                               lateral_known_directions(context, level, neutral, predictors)};
+                               lateral_known_directions(context, level, neutral, predictors, predicted_without)};
     const std::vector<double> noise =
         bends() ? bend_score_at_neutral(context, *configured, effect_free, map_options, &result)
                 : score_at_neutral(context, *configured, free, effect_free.size(), map_options, predictors, force_runs,
@@ -938,8 +938,8 @@ class EffectFit final : public FitStage {
     return {std::sqrt(squares / (n - 1) / n), static_cast<int>(logs.size()) - 1};
   }
 
-  // The curves' levels on the lateral strains (docs/effects/poisson.md, "The curves' level in the
-  // lateral strains' noise"): every fitted curve's stiffness is off its truth by its level's
+  // The curves' levels on the lateral strains (docs/discovery.md §2, "The lateral strains' noise
+  // beyond each run's"): every fitted curve's stiffness is off its truth by its level's
   // error δ_k (curve_level), and a strip's contraction follows the stiffnesses' ratios (a weft
   // strip's by a12/a11), which no specimen scale absorbs — the lateral strains have none. So
   // every lateral row of every run shares the noise J_L δ, J_L = ∂r_L/∂log a_k (the objective's
@@ -950,11 +950,7 @@ class EffectFit final : public FitStage {
   // scatter) missed the weft's lateral strains by 8.86 %, and poisson was named (p 0.018).
   Eigen::MatrixXd lateral_level_noise(FitContext& context, const MaterialParameters& params,
                                       const std::vector<std::shared_ptr<Predictor>>& predictors) const {
-    Eigen::Index rows = 0, first = 0;
-    for (size_t i = 0; i < predictors.size(); ++i) {
-      if (i == runs_.size()) first = rows;
-      rows += predictors[i]->measured().size();
-    }
+    const auto [rows, first] = lateral_layout(predictors);
     std::vector<std::string> stiffnesses;
     std::vector<double> se;
     for (const CurveStage& c : context.fitted_curves)
@@ -984,7 +980,9 @@ class EffectFit final : public FitStage {
 
   // Patterns the lateral strains carry that no unknown does and the data cannot tell from a
   // coupling, as directions of the score test's baseline (m × 2·tests, zero off the lateral
-  // rows; none without lateral rows, with a note when a strip fails). Per lateral test:
+  // rows; none without lateral rows, with a note when a strip fails), from each lateral
+  // predictor's prediction at `params` (`at_neutral`, the errors without the effect's). Per
+  // lateral test:
   // - the mesh's own error, its runs' rows (p_finer − p)/p̆, p_finer the strip one level finer.
   //   Generated data are simulated finer than they are fitted, as real data are continuous,
   //   and a strip's contraction converges slowly near the first strains (an 8×12 strip's is
@@ -998,23 +996,21 @@ class EffectFit final : public FitStage {
   //   Measured on a 1°-cut null twin: poisson's p 5e-4 → 0.0055, still named — the cuts are
   //   not fixed by it (a column per run instead: p 0.001; docs/effects/poisson.md).
   Eigen::MatrixXd lateral_known_directions(FitContext& context, int level, const MaterialParameters& params,
-                                           const std::vector<std::shared_ptr<Predictor>>& predictors) const {
+                                           const std::vector<std::shared_ptr<Predictor>>& predictors,
+                                           const std::vector<Eigen::VectorXd>& at_neutral) const {
     if (lateral_runs_.empty()) return {};
-    Eigen::Index rows = 0, row = 0;
-    for (size_t i = 0; i < predictors.size(); ++i) {
-      if (i == runs_.size()) row = rows;
-      rows += predictors[i]->measured().size();
-    }
+    auto [rows, row] = lateral_layout(predictors);
     std::vector<std::string> tests;  // each lateral test's pair of columns
     Eigen::MatrixXd known = Eigen::MatrixXd::Zero(rows, 0);
     for (size_t j = 0; j < lateral_runs_.size(); ++j) {
       const std::shared_ptr<Predictor>& at = predictors[runs_.size() + j];
+      const Eigen::VectorXd& nominal = at_neutral.at(runs_.size() + j);
       RunData cut = lateral_runs_[j];
       cut.strip_angle_deg = FitContext::strip_angle(cut) + kCutProbeDeg;
-      Eigen::VectorXd nominal, finer, offset;
-      std::string message;
+      Eigen::VectorXd finer, offset;
+      std::string message = "the strip at the neutral values did not converge";
       const bool solved =
-          at->predict(params, {}, &nominal, nullptr, &message) &&
+          std::isfinite(nominal.sum()) &&
           context.tensile_experiment(lateral_runs_[j], level + 1, params, kLateralExperiment)
               ->predict(params, {}, &finer, nullptr, &message) &&
           context.tensile_experiment(cut, level, params, kLateralExperiment)->predict(params, {}, &offset, nullptr,
@@ -1038,6 +1034,17 @@ class EffectFit final : public FitStage {
       row += n;
     }
     return known;
+  }
+
+  // The predictors' rows in all and the first lateral row (the lateral predictors follow the
+  // force runs').
+  std::pair<Eigen::Index, Eigen::Index> lateral_layout(const std::vector<std::shared_ptr<Predictor>>& predictors) const {
+    Eigen::Index rows = 0, first = 0;
+    for (size_t i = 0; i < predictors.size(); ++i) {
+      if (i == runs_.size()) first = rows;
+      rows += predictors[i]->measured().size();
+    }
+    return {rows, first};
   }
 
   // Each run's floor with the curves' levels (`level`, lateral_level_noise) added in

@@ -91,6 +91,13 @@ ScoreTest score_of_a22(const std::vector<std::shared_ptr<Predictor>>& runs, cons
   return score_test(candidate, candidate.map().initial_x(), 1, calibration);
 }
 
+// A calibration of b replicates (b = 0: none), the rest its defaults.
+ScoreCalibration with_replicates(int b) {
+  ScoreCalibration c;
+  c.replicates = b;
+  return c;
+}
+
 // How often the score test rejects at 5 % over `replicates` data sets without the effect.
 struct NullRejections {
   int iid = 0, calibrated = 0;
@@ -102,7 +109,7 @@ NullRejections null_rejections(int replicates, int runs, const Noise& noise, std
   constexpr int kCalibrationReplicates = 199;  // p to 0.005: enough to count rejections at 5 %
   NullRejections out;
   for (int k = 0; k < replicates; ++k) {
-    const ScoreTest t = score_of_a22(noisy_runs(start(), runs, noise, &engine), {kCalibrationReplicates});
+    const ScoreTest t = score_of_a22(noisy_runs(start(), runs, noise, &engine), with_replicates(kCalibrationReplicates));
     EXPECT_EQ(t.dof, 1);
     out.iid += t.p_value_iid < 0.05;
     out.calibrated += t.p_value < 0.05;
@@ -184,13 +191,13 @@ TEST(ScoreTest, AKnownDirectionJoinsTheBaselineAndCannotCountForTheCandidate) {
   const Eigen::MatrixXd own = j.rightCols(1);
   Eigen::MatrixXd half_of_it = own;
   half_of_it.topRows(kStrains.size()).setZero();  // the pattern on the second run only
-  const ScoreTest absorbed = score_test(objective, objective.map().initial_x(), 1, {0}, own);
-  const ScoreTest kept = score_test(objective, objective.map().initial_x(), 1, {0}, half_of_it);
+  const ScoreTest absorbed = score_test(objective, objective.map().initial_x(), 1, with_replicates(0), own);
+  const ScoreTest kept = score_test(objective, objective.map().initial_x(), 1, with_replicates(0), half_of_it);
   EXPECT_EQ(absorbed.dof, 0);
   EXPECT_EQ(absorbed.statistic, 0.0);
   EXPECT_EQ(kept.dof, 1);
   EXPECT_LT(kept.p_value_iid, 1e-6);
-  EXPECT_THROW(score_test(objective, objective.map().initial_x(), 1, {0}, own.topRows(3)), std::invalid_argument);
+  EXPECT_THROW(score_test(objective, objective.map().initial_x(), 1, with_replicates(0), own.topRows(3)), std::invalid_argument);
 }
 
 TEST(ScoreTest, ACandidateThatOnlyRescalesRunsScoresNothingWithSpecimenScales) {
