@@ -139,6 +139,7 @@ struct ScoreBasis {
 struct Statistic {
   double t = 0, sigma2 = 0;
   Eigen::VectorXd noise;  ///< u: the residual neither the baseline nor the candidate explains
+  Eigen::VectorXd part;   ///< the candidate's least-squares part of P r (P r = part + noise)
 };
 
 Statistic statistic_of(const ScoreBasis& basis, const Eigen::VectorXd& r) {
@@ -147,12 +148,20 @@ Statistic statistic_of(const ScoreBasis& basis, const Eigen::VectorXd& r) {
   const Eigen::VectorXd coefficients = along.cwiseQuotient(basis.lambda);
   const double explained = along.dot(coefficients);
   Statistic out;
-  out.noise = free_residual - basis.signature * (basis.directions * coefficients);
+  out.part = basis.signature * (basis.directions * coefficients);
+  out.noise = free_residual - out.part;
   // The noise the baseline and the candidate both leave: under the alternative the baseline's
   // residual holds the candidate's signal too, and a variance estimated from it caps T at m.
   out.sigma2 = (free_residual.squaredNorm() - explained) / static_cast<double>(basis.remaining);
   out.t = basis.directions.cols() > 0 && out.sigma2 > 0 ? explained / out.sigma2 : 0.0;
   return out;
+}
+
+// Each row's share of T (ScoreTest::run_share sums it per run): P r = part + noise, and
+// (P r)ᵀ part is the explained sum, T σ².
+Eigen::VectorXd row_shares(const Statistic& at) {
+  if (!(at.t > 0)) return Eigen::VectorXd::Zero(at.part.size());
+  return (at.noise + at.part).cwiseProduct(at.part) / at.sigma2;
 }
 
 // The baseline's basis and the candidate's directions net of it (score_test.hpp), their
@@ -277,9 +286,11 @@ ScoreTest score_test(const Eigen::VectorXd& r, const Eigen::MatrixXd& baseline, 
   const Statistic observed = statistic_of(basis, r);
   out.sigma2 = observed.sigma2;
   out.statistic = observed.t;
+  const Eigen::VectorXd shares = row_shares(observed);
   Eigen::Index row = 0;
   for (const Eigen::Index size : run_rows) {
     out.run_noise.push_back(size > 0 ? observed.noise.segment(row, size).cwiseAbs().mean() : 0.0);
+    out.run_share.push_back(shares.segment(row, size).sum());
     row += size;
   }
   if (out.dof == 0) return out;

@@ -62,6 +62,11 @@ struct ScoreTest {
   /// run's noise alone makes (`twill discover`'s floor). Empty when no residual degree of
   /// freedom is left; filled without calibration too (ScoreCalibration::replicates = 0).
   std::vector<double> run_noise;
+  /// Per predictor (run), its rows' share of T: (P r)ᵀ on the run's rows times the candidate's
+  /// least-squares part of P r there, over σ² — the shares sum to T. Where a score comes from
+  /// (docs/discovery.md §2: on poisson's 1°-cut null twin the three warp lateral strips held
+  /// 6.4 of T = 10.2, a pattern the baseline did not carry). Empty with run_noise.
+  std::vector<double> run_share;
   Eigen::MatrixXd signature;  ///< P J_e: m × (candidate's unknowns), residual units
 };
 

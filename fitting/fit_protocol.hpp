@@ -136,6 +136,8 @@ struct FitEffectTest {
   int runs = 0;
   double error_without = 0, error_with = 0;
   double noise_floor = std::numeric_limits<double>::quiet_NaN();
+  /// Its runs' share of the score's T (ScoreTest::run_share summed; NaN without a score test).
+  double score_share = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// One force run of an effect-fit stage: its rows in file order (loading, then unloading) and
@@ -163,6 +165,7 @@ struct FitEffect {
   double score_p_value_iid = 1;
   double score_p_value = 1;
   double score_noise_correlation = 0;
+  std::vector<double> score_run_share;  ///< ScoreTest::run_share, per run of the stage (tests[…].score_share sums it)
   std::vector<FitEffectParameter> parameters;
   std::vector<FitEffectTest> tests;  ///< per test, in the order the stage's runs come
   std::vector<FitEffectCurve> curves;  ///< per force run (not for angle-offset effects or fit: false)

@@ -337,10 +337,18 @@ class EffectFit final : public FitStage {
     for (size_t i = 0; i < tests.size(); ++i) {
       auto t = std::find_if(result->tests.begin(), result->tests.end(),
                             [&](const FitEffectTest& e) { return e.test == tests[i]; });
-      if (t == result->tests.end()) t = result->tests.insert(t, FitEffectTest{tests[i], 0, 0, 0, noise.empty() ? std::numeric_limits<double>::quiet_NaN() : 0.0});
+      const bool shared = result->score_run_share.size() == tests.size();
+      if (t == result->tests.end()) {
+        FitEffectTest fresh;
+        fresh.test = tests[i];
+        if (!noise.empty()) fresh.noise_floor = 0;
+        if (shared) fresh.score_share = 0;
+        t = result->tests.insert(t, fresh);
+      }
       t->error_without += without[i];
       t->error_with += with[i];
       if (!noise.empty()) t->noise_floor += noise[i];
+      if (shared) t->score_share += result->score_run_share[i];
       ++t->runs;
     }
     for (FitEffectTest& t : result->tests) {
@@ -869,6 +877,7 @@ class EffectFit final : public FitStage {
     result->score_p_value_iid = t.p_value_iid;
     result->score_p_value = t.p_value;
     result->score_noise_correlation = t.noise_correlation;
+    result->score_run_share = t.run_share;
   }
 
   // The residuals (p̂ − p̆)/p̆ of `predictors` at `params` and their Jacobian in `free`.
@@ -990,11 +999,15 @@ class EffectFit final : public FitStage {
   //   curvature takes up: a cut-free null twin named poisson at p 5e-4 with η2''(0) 5.3 (the
   //   aligned twins' mesh bias gave 3.4–5.1; papers/hidden_effects/README.md, "Poisson"); with
   //   this direction p 0.32;
-  // - the strips' cutting offsets, (p(θ + kCutProbeDeg) − p)/p̆. A cut moves a warp or weft
-  //   strip's contraction evenly in the offset (±θ alike) and as its square, so unknown cuts
-  //   bias every strip the same way, by a pattern that grows with the strain (kCutProbeDeg).
-  //   Measured on a 1°-cut null twin: poisson's p 5e-4 → 0.0055, still named — the cuts are
-  //   not fixed by it (a column per run instead: p 0.001; docs/effects/poisson.md).
+  // - the strips' cutting offsets, (p_finer(θ + kCutProbeDeg) − p_finer)/p̆. A cut moves a
+  //   warp or weft strip's contraction evenly in the offset (±θ alike) and as its square, so
+  //   unknown cuts bias every strip the same way, by a pattern that grows with the strain
+  //   (kCutProbeDeg). It is taken on the finer strip: the coarse strip's response to a cut is
+  //   not the continuum's — at 1.3° a warp strip narrows 1.6/3.3/6.6/11.7 % more at 1/4/8/12 mm
+  //   on 8×12 and 1.3/2.8/6.8/20.6 % on 16×24 (truth of poisson twin 1) — and a column of the
+  //   coarse pattern left the rest to the coupling: on the 1°-cut null twin 1 (10 %) the warp
+  //   lateral strains alone gave T 6.4 of 10.2, p 0.0055, named; with the finer pattern T 0.19,
+  //   p 0.78 (docs/effects/poisson.md, "The cuts, on the finer strip").
   Eigen::MatrixXd lateral_known_directions(FitContext& context, int level, const MaterialParameters& params,
                                            const std::vector<std::shared_ptr<Predictor>>& predictors,
                                            const std::vector<Eigen::VectorXd>& at_neutral) const {
@@ -1013,8 +1026,8 @@ class EffectFit final : public FitStage {
           std::isfinite(nominal.sum()) &&
           context.tensile_experiment(lateral_runs_[j], level + 1, params, kLateralExperiment)
               ->predict(params, {}, &finer, nullptr, &message) &&
-          context.tensile_experiment(cut, level, params, kLateralExperiment)->predict(params, {}, &offset, nullptr,
-                                                                                      &message);
+          context.tensile_experiment(cut, level + 1, params, kLateralExperiment)->predict(params, {}, &offset, nullptr,
+                                                                                          &message);
       if (!solved || finer.size() != nominal.size() || offset.size() != nominal.size()) {
         context.note("effect " + options_.effect + ": the mesh's and the cuts' patterns in the lateral strains not "
                      "measured: " + message);
@@ -1030,7 +1043,7 @@ class EffectFit final : public FitStage {
       }
       const Eigen::Index n = nominal.size(), column = 2 * (found - tests.begin());
       known.col(column).segment(row, n) = (finer - nominal).cwiseQuotient(at->measured());
-      known.col(column + 1).segment(row, n) = (offset - nominal).cwiseQuotient(at->measured());
+      known.col(column + 1).segment(row, n) = (offset - finer).cwiseQuotient(at->measured());
       row += n;
     }
     return known;

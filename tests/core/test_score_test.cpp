@@ -198,6 +198,20 @@ TEST(ScoreTest, AKnownDirectionJoinsTheBaselineAndCannotCountForTheCandidate) {
   EXPECT_EQ(kept.dof, 1);
   EXPECT_LT(kept.p_value_iid, 1e-6);
   EXPECT_THROW(score_test(objective, objective.map().initial_x(), 1, with_replicates(0), own.topRows(3)), std::invalid_argument);
+  // Where the score comes from: the runs' shares sum to T. Both runs carry the term; with its
+  // pattern known on the second run, that run's share falls by more than half (the first
+  // run's rows still reach it through a11's direction, which spans both) and the first's holds.
+  const ScoreTest whole = score_test(objective, objective.map().initial_x(), 1, with_replicates(0));
+  ASSERT_EQ(whole.run_share.size(), 2u);
+  ASSERT_EQ(kept.run_share.size(), 2u);
+  std::printf("[measured] run shares %.1f, %.1f of T %.1f; with the second run's pattern known %.1f, %.1f of %.1f\n",
+              whole.run_share[0], whole.run_share[1], whole.statistic, kept.run_share[0], kept.run_share[1],
+              kept.statistic);
+  EXPECT_NEAR(whole.run_share[0] + whole.run_share[1], whole.statistic, 1e-9 * whole.statistic);
+  EXPECT_NEAR(kept.run_share[0] + kept.run_share[1], kept.statistic, 1e-9 * kept.statistic);
+  EXPECT_GT(whole.run_share[1], 0.25 * whole.statistic);
+  EXPECT_LT(kept.run_share[1], 0.5 * whole.run_share[1]);
+  EXPECT_GT(kept.run_share[0], 0.9 * whole.run_share[0]);
 }
 
 TEST(ScoreTest, ACandidateThatOnlyRescalesRunsScoresNothingWithSpecimenScales) {
