@@ -126,19 +126,18 @@ struct Excess {
 };
 
 Excess excess_over_floors(const FitEffect& e, const std::map<std::string, double>& floors) {
-  Excess x;
-  double floor_sum = 0;
+  double before = 0, after = 0, floor = 0;
   int runs = 0;
   for (const FitEffectTest& t : e.tests) {
     const auto found = floors.find(t.test);
     if (found == floors.end()) continue;
-    x.before += t.runs * std::max(t.error_without - found->second, 0.0);
-    x.after += t.runs * std::max(t.error_with - found->second, 0.0);
-    floor_sum += t.runs * found->second;
+    before += t.runs * std::max(t.error_without - found->second, 0.0);
+    after += t.runs * std::max(t.error_with - found->second, 0.0);
+    floor += t.runs * found->second;
     runs += t.runs;
   }
-  if (runs == 0) return {0, 0, std::numeric_limits<double>::quiet_NaN()};
-  return {x.before / runs, x.after / runs, floor_sum / runs};
+  if (runs == 0) return {};
+  return {before / runs, after / runs, floor / runs};
 }
 
 // Whether the misfit in excess of the floors shrinks `factor`-fold, and the sentence saying so.
@@ -195,7 +194,7 @@ bool real_misfit(const FitEffect& e, const std::map<std::string, double>& floors
 // or it shrank less.
 std::string why_no_shrink(const Excess& x, double factor) {
   return x.before <= 0 ? "the baseline is within the floor: no excess to shrink"
-                                  : fmt::format("the excess over the floor shrank less than {:g}-fold", factor);
+                       : fmt::format("the excess over the floor shrank less than {:g}-fold", factor);
 }
 
 // One candidate's status from its own effect-fit record (`threshold`: α / candidates tested).
@@ -211,8 +210,8 @@ void judge_one(const DiscoverOptions& options, double threshold, const std::map<
   const Excess excess = excess_over_floors(e, floors);
   std::string gain;
   const bool shrinks = std::isfinite(excess.floor) && excess_shrinks(e, excess, options.min_excess_shrink, &gain);
-  if (!std::isfinite(excess.floor)) gain = fmt::format("error {:.2f} % → {:.2f} %, no noise floor measured",
-                                                100 * e.error_without, 100 * e.error_with);
+  if (!std::isfinite(excess.floor))
+    gain = fmt::format("error {:.2f} % → {:.2f} %, no noise floor measured", 100 * e.error_without, 100 * e.error_with);
   std::string no_misfit;
   if (!std::isfinite(e.score) && !real_misfit(e, floors, options.unexplained_ratio, richer, &no_misfit)) {
     c->status = kRejected;
@@ -281,8 +280,8 @@ std::vector<DiscoverCandidate>::iterator find_candidate(DiscoverResult* result, 
                       [&](const DiscoverCandidate& d) { return d.name == name; });
 }
 
-// The excess over the floors a candidate fitted alone leaves (test by test, excess_over_floors), zero when it is within what the
-// floor's own estimate can resolve: the floor is a mean |u| over the effect's n rows, whose
+// The excess over the floors a candidate fitted alone leaves (test by test, excess_over_floors),
+// zero when it is within what the floor's own estimate can resolve: the floor is a mean |u| over the effect's n rows, whose
 // relative standard error for Gaussian u is √(π/2 − 1)/√n ≈ 0.76/√n, 5–6 % at the 140–300 rows
 // of a generated dataset; an excess below two of those (a tenth of the floor) is not there.
 constexpr double kResolvableExcess = 0.1;  ///< of the floor
