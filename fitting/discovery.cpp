@@ -41,6 +41,7 @@ constexpr const char* kEffectFitStage = "effect-fit";
 constexpr const char* kTensileCurveStage = "tensile-curve";
 constexpr const char* kFinalCurvesStage = "final-curves";
 constexpr const char* kBendStage = "bend";
+constexpr const char* kInitialGuessStage = "initial-guess";
 // curve-degree raises each curve while a raise lowers its error by at least this fraction: the
 // error has stopped falling below it (the protocol's own search stops at 20 %, or at its target).
 constexpr double kRicherCurveMinImprovement = 0.1;
@@ -190,20 +191,23 @@ bool real_misfit(const FitEffect& e, const std::map<std::string, double>& floors
   return false;
 }
 
-// Why the excess did not shrink `factor`-fold: there was none (the baseline within its floor),
-// or it shrank less.
-std::string why_no_shrink(const Excess& x, double factor) {
-  return x.before <= 0 ? "the baseline is within the floor: no excess to shrink"
-                       : fmt::format("the excess over the floor shrank less than {:g}-fold", factor);
+// Why the excess did not shrink `factor`-fold (there is one: judge_one asks for a real misfit
+// first).
+std::string why_no_shrink(double factor) {
+  return fmt::format("the excess over the floor shrank less than {:g}-fold", factor);
 }
 
 // One candidate's status from its own effect-fit record (`threshold`: α / candidates tested).
 //
-// A candidate without a calibrated test (curve-degree, misalignment) has only the shrink of the
-// excess over the floor to go on, and the excess of a baseline at its floor shrinks 3-fold as
-// easily as not: it must first face a real misfit (real_misfit). Found on the null twins of
-// papers/discovery at 8×12, seeds 2 and 4: misalignment 1.25 → 1.20 % and curve-degree 1.37 →
-// 0.73 % against floors of 1.19 and 1.29 % read `tied` and `named`.
+// Every candidate must first face a real misfit (real_misfit): the excess of a baseline at its
+// floor shrinks 3-fold as easily as not. Found first for the candidates without a calibrated
+// test (papers/discovery at 8×12, seeds 2 and 4: misalignment 1.25 → 1.20 % and curve-degree
+// 1.37 → 0.73 % against floors of 1.19 and 1.29 % read `tied` and `named`), then for one with
+// it: with the baseline's curves at the repeats' scatter, friction's null twin 1 at 10 % named
+// hysteresis from an excess of 0.02 → 0.00 points (0.71 → 0.67 % against 0.87 %) at a
+// calibrated p of 0.013, the bias strips, within their floors, carrying 20 of its T of 21
+// (2026-12-06). A score test's size is α per candidate; the shrink rule is the guard against
+// its false alarms, and it guards nothing where there is no excess.
 void judge_one(const DiscoverOptions& options, double threshold, const std::map<std::string, double>& floors,
                const FitEffect* richer, DiscoverCandidate* c) {
   const FitEffect& e = *c->effect;
@@ -212,10 +216,14 @@ void judge_one(const DiscoverOptions& options, double threshold, const std::map<
   const bool shrinks = std::isfinite(excess.floor) && excess_shrinks(e, excess, options.min_excess_shrink, &gain);
   if (!std::isfinite(excess.floor))
     gain = fmt::format("error {:.2f} % → {:.2f} %, no noise floor measured", 100 * e.error_without, 100 * e.error_with);
+  // A score-tested effect's misfit is not discounted by the richer curve: where both explain it,
+  // the two are tied (resolve_curve_degree), not the effect rejected.
   std::string no_misfit;
-  if (!std::isfinite(e.score) && !real_misfit(e, floors, options.unexplained_ratio, richer, &no_misfit)) {
+  if (!real_misfit(e, floors, options.unexplained_ratio, std::isfinite(e.score) ? nullptr : richer, &no_misfit)) {
     c->status = kRejected;
-    c->reason = gain + "; no score test, and " + no_misfit;
+    c->reason = gain + (std::isfinite(e.score) ? fmt::format("; calibrated p {:.2g}, but ", e.score_p_value)
+                                               : std::string("; no score test, and ")) +
+                no_misfit;
     return;
   }
   if (c->name == kCurveDegreeCandidate) {
@@ -224,7 +232,7 @@ void judge_one(const DiscoverOptions& options, double threshold, const std::map<
     // strain), which it cannot fit where the misfit is physics.
     c->status = shrinks ? kNamed : kRejected;
     c->reason = gain + (shrinks ? "; a richer elastic curve explains the misfit"
-                                : ": " + why_no_shrink(excess, options.min_excess_shrink));
+                                : ": " + why_no_shrink(options.min_excess_shrink));
     return;
   }
   if (!std::isfinite(e.score)) {
@@ -233,7 +241,7 @@ void judge_one(const DiscoverOptions& options, double threshold, const std::map<
     c->status = shrinks ? kTied : kRejected;
     c->reason = shrinks ? gain + "; no score test for its per-run values, which trade with the specimen scales (needs: " +
                               needs_to_separate(c->name, "specimen scale") + ")"
-                        : gain + "; no score test, and " + why_no_shrink(excess, options.min_excess_shrink);
+                        : gain + "; no score test, and " + why_no_shrink(options.min_excess_shrink);
     return;
   }
   if (!(e.score_p_value < threshold)) {
@@ -244,7 +252,7 @@ void judge_one(const DiscoverOptions& options, double threshold, const std::map<
   }
   c->status = shrinks ? kNamed : kRejected;
   c->reason = fmt::format("calibrated p {:.2g} {} α/n = {:.2g}; {}{}", e.score_p_value, "<", threshold, gain,
-                          shrinks ? "" : ": " + why_no_shrink(excess, options.min_excess_shrink));
+                          shrinks ? "" : ": " + why_no_shrink(options.min_excess_shrink));
   if (!shrinks) return;
   const DiscoverHeldOut& h = c->held_out;
   if (h.evaluated) {
@@ -533,8 +541,59 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-// The config's repeats made the baseline's (every repeat, a scale per run), saying what changed.
-Options baseline_config(const Options& config, const Registry& registry, std::vector<std::string>* notes) {
+std::optional<double> repeat_floor(const TensileTest& test) {
+  const std::optional<RepeatBranches> b = repeat_branches(test);
+  if (!b) return std::nullopt;
+  const double n = static_cast<double>(b->forces.size());
+  double sum = 0;
+  for (size_t r = 0; r < b->forces.size(); ++r)
+    sum += (b->scales[r] * b->forces[r] - b->mean).cwiseAbs().sum() / b->mean.cwiseAbs().sum();
+  return sum / n * std::sqrt(n / (n - 1));
+}
+
+// The runs-weighted repeats' scatter of the fit tests at `angle_deg` (nullopt when none has two
+// repeats on a shared grid).
+std::optional<double> repeat_floor_at(const Dataset& dataset, double angle_deg) {
+  double sum = 0, runs = 0;
+  for (const TensileTest& test : dataset.tensile)
+    if (test.role == TestRole::Fit && test.runs.size() >= 2 && same_angle(test.angle_deg, angle_deg))
+      if (const auto floor = repeat_floor(test)) {
+        sum += *floor * static_cast<double>(test.runs.size());
+        runs += static_cast<double>(test.runs.size());
+      }
+  if (runs == 0) return std::nullopt;
+  return sum / runs;
+}
+
+// The baseline's degree search aims at the repeats' scatter: each tensile-curve stage's
+// target_error is lowered to the repeat floor of its angle's fit tests where that is below the
+// protocol's (identical repeats, floor 0, keep the protocol's). The paper's target (1 %, 2 % on
+// the bias, §5.4) stands in for the measurement's noise; a curve left above the repeats'
+// scatter keeps a misfit that any richer curve takes away, and curve-degree was named on null
+// data for it (friction's twin 1 at 10 %: warp 0.75–0.82 % under the 1 % target against the
+// repeats' 0.39–0.44 %, papers/discovery 2026-12-06).
+void aim_at_the_repeats(const Dataset& dataset, Options* fit, std::vector<std::string>* notes) {
+  std::vector<ComponentChoice> protocol = fit->get_component_list("protocol");
+  std::string lowered;
+  for (ComponentChoice& stage : protocol) {
+    if (stage.name != kTensileCurveStage) continue;
+    const double target = stage.options.get_double("target_error");
+    const std::optional<double> floor = repeat_floor_at(dataset, stage.options.get_double("angle_deg"));
+    if (!floor || !(*floor > 0) || *floor >= target) continue;
+    stage.options.set("target_error", *floor);
+    lowered += fmt::format("{}{} {:.2f} → {:.2f} %", lowered.empty() ? "" : ", ", stage.options.get_string("label"),
+                           100 * target, 100 * *floor);
+  }
+  if (lowered.empty()) return;
+  fit->set("protocol", protocol);
+  notes->push_back("the baseline raises each curve's degree until its error is within its repeats' scatter, not "
+                   "the protocol's target (target_error " + lowered + ")");
+}
+
+}  // namespace
+
+Options discover_baseline_config(const Dataset& dataset, const Options& config, const Registry& registry,
+                                 std::vector<std::string>* notes) {
   Options fit = discover_fit_config(config);
   const Options& repeats = fit.get_section("repeats");
   if (repeats.get_string("rule") != "all" || repeats.get_string("scale") != "per-run")
@@ -545,8 +604,11 @@ Options baseline_config(const Options& config, const Registry& registry, std::ve
   apply_overrides(fit, fit_config_schema(), &registry, {"repeats.rule=all", "repeats.scale=per-run"});
   if (!fit.get_component_list("effects").empty())
     notes->push_back("the config's effects are not part of the baseline: list them under discover.candidates");
+  aim_at_the_repeats(dataset, &fit, notes);
   return with_effects(fit, {}, registry);
 }
+
+namespace {
 
 FitProgress prefixed(const FitProgress& progress, const std::string& what) {
   return [progress, what](int level, const std::string& line) {
@@ -625,16 +687,6 @@ double misfit_floor(const DiscoverGap& g) {
   if (!std::isfinite(g.repeat_floor)) return g.floor;
   const double model_free = g.repeat_floor + (std::isfinite(g.resolution_error) ? g.resolution_error : 0.0);
   return std::isfinite(g.floor) ? std::min(g.floor, model_free) : model_free;
-}
-
-std::optional<double> repeat_floor(const TensileTest& test) {
-  const std::optional<RepeatBranches> b = repeat_branches(test);
-  if (!b) return std::nullopt;
-  const double n = static_cast<double>(b->forces.size());
-  double sum = 0;
-  for (size_t r = 0; r < b->forces.size(); ++r)
-    sum += (b->scales[r] * b->forces[r] - b->mean).cwiseAbs().sum() / b->mean.cwiseAbs().sum();
-  return sum / n * std::sqrt(n / (n - 1));
 }
 
 // curve-degree's error on `test`'s rows (NaN when it was not fitted or has no such test).
@@ -864,6 +916,59 @@ struct DiscoverWork {
     return s;
   }
 };
+
+}  // namespace
+
+std::string baseline_above_target(const FitReport& report, const Options& fit) {
+  for (const ComponentChoice& stage : fit.get_component_list("protocol")) {
+    if (stage.name != kTensileCurveStage) continue;
+    std::vector<double> errors;
+    for (const FitCurve& c : report.fit)
+      if (c.role == "fit" && same_angle(c.angle_deg, stage.options.get_double("angle_deg")))
+        errors.push_back(c.avg_rel_error);
+    const double target = stage.options.get_double("target_error");
+    if (!errors.empty() && mean(errors) > target)
+      return fmt::format("{} {:.2f} % against its target {:.2f} %", stage.options.get_string("label"),
+                         100 * mean(errors), 100 * target);
+  }
+  return "";
+}
+
+namespace {
+
+// The mean error of a fit's final curves over its fit runs.
+double fit_runs_mean_error(const FitReport& report) {
+  std::vector<double> errors;
+  for (const FitCurve& c : report.fit)
+    if (c.role == "fit") errors.push_back(c.avg_rel_error);
+  return mean(errors);
+}
+
+// The baseline's second pass (docs/discovery.md §1, Baseline): the protocol once more from the
+// first pass's parameters (start-from in place of initial-guess), so that each degree search
+// starts at its curve's degree with the other curves and the cutoffs as the first pass left
+// them. The first pass searches a curve's degree before the later stages move what it shares
+// with them: friction's null twin 1 at 10 % had its warp at 0.39 % (degree 2, target 0.41 %)
+// in the search and at 0.76 % once the weft and the cutoffs were in place (2026-12-06).
+void baseline_second_pass(const DiscoverWork& work, DiscoverResult* result) {
+  const std::string above = baseline_above_target(result->baseline, work.fit);
+  if (above.empty()) return;
+  if (work.progress) work.progress(0, "baseline: a second pass from the first's parameters (" + above + ")");
+  Options config = work.fit;
+  const std::string first = params_with_effects(result->baseline.parameters, {}, work.file("baseline-first-pass.yaml"),
+                                                work.registry);
+  std::vector<ComponentChoice> protocol = {start_from_stage(first, work.registry)};
+  for (const ComponentChoice& stage : work.fit.get_component_list("protocol"))
+    if (stage.name != kInitialGuessStage) protocol.push_back(stage);
+  config.set("protocol", protocol);
+  FitReport second = run_fit(work.dataset, config, work.registry, prefixed(work.progress, "baseline, second pass"));
+  const double before = fit_runs_mean_error(result->baseline), after = fit_runs_mean_error(second);
+  const bool better = after < before;
+  result->notes.push_back(fmt::format("the baseline's first pass left {}: a second pass from its parameters took the "
+                                      "fit runs' mean error {:.2f} → {:.2f} %{}",
+                                      above, 100 * before, 100 * after, better ? "" : ", so the first pass is kept"));
+  if (better) result->baseline = std::move(second);
+}
 
 // `effects` fitted from `start` (start-from + their effect-fit stages) on `dataset` at `level`
 // (the screening level unless given).
@@ -1217,7 +1322,7 @@ DiscoverResult run_discover(const Dataset& dataset, const Options& config, const
   const auto t0 = Clock::now();
   const DiscoverOptions options = read_discover_options(config);
   DiscoverResult result;
-  const Options fit = baseline_config(config, registry, &result.notes);
+  const Options fit = discover_baseline_config(dataset, config, registry, &result.notes);
   result.candidates = audit_candidates(dataset, fit, options, registry);
   for (const DiscoverCandidate& c : result.candidates)
     if (progress && !c.status.empty()) progress(0, "candidate " + c.name + ": " + c.status + " (" + c.reason + ")");
@@ -1226,6 +1331,7 @@ DiscoverResult run_discover(const Dataset& dataset, const Options& config, const
   result.baseline = run_fit(dataset, fit, registry, prefixed(progress, "baseline"));
   DiscoverWork work{dataset, fit, registry, progress};
   work.step_times = &result.step_times;
+  baseline_second_pass(work, &result);
   work.baseline = &result.baseline.parameters;
   work.refit_fold_baselines = options.fold_baselines == "refit";
   work.timed("baseline", t_baseline);

@@ -145,6 +145,16 @@ OptionSchema discover_config_schema();
 DiscoverOptions read_discover_options(const Options& config);
 /// The fit config inside a discover config (every entry but the `discover` section).
 Options discover_fit_config(const Options& config);
+/// The baseline's fit config (step 2): the discover config's fit config with every repeat fitted
+/// at a specimen scale of its own, no effects, and each tensile-curve stage's target_error
+/// lowered to its angle's repeat floor (the runs-weighted repeat_floors of its fit tests) where
+/// that is below the protocol's; what changed is said in `notes`.
+Options discover_baseline_config(const Dataset& dataset, const Options& config, const Registry& registry,
+                                 std::vector<std::string>* notes);
+/// The first tensile-curve stage of `fit` (a baseline config) whose angle's fit runs miss by more
+/// than its target_error at the end of `report` (the mean of their final curves' average
+/// relative errors), in words; "" when none does. The baseline takes a second pass then.
+std::string baseline_above_target(const FitReport& report, const Options& fit);
 
 /// The candidates' audit (step 1): each registered (or configured) candidate, `untestable` with
 /// what it needs, or with an empty status when it can be fitted.

@@ -34,12 +34,12 @@ std::vector<double> run_errors(const FitObjective& objective, size_t n) {
 
 double mean_run_error(const FitObjective& objective, size_t n) { return mean(run_errors(objective, n)); }
 
-namespace {
-
 // Two tests' angles are one curve's when they agree to this (degrees; angles are read from
 // the same decimal text, so any finite tolerance far below a cut's precision serves).
 constexpr double kSameAngleDeg = 1e-9;
 bool same_angle(double a, double b) { return std::abs(a - b) < kSameAngleDeg; }
+
+namespace {
 
 // At most max_points of `rows`, evenly spread, first and last kept.
 std::vector<size_t> spread(const std::vector<size_t>& rows, size_t max_points) {

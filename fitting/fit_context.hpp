@@ -105,6 +105,8 @@ double geometric_mean(const std::vector<double>& v);
 /// The first n runs' average relative errors (model.md §8), and their mean.
 std::vector<double> run_errors(const FitObjective& objective, size_t n);
 double mean_run_error(const FitObjective& objective, size_t n);
+/// Whether two tests' angles [deg] are one curve's (read from the same decimal text).
+bool same_angle(double a, double b);
 
 class FitContext {
  public:

@@ -57,9 +57,20 @@ TEST(DiscoverJudge, RejectsWhatIsNotSignificantOrDoesNotShrinkEnough) {
   // No excess at all: the baseline is at the floor, and the reason says so.
   const DiscoverResult at_floor = judged({fitted("hysteresis", 1e-3, 0.01, 0.009)});
   EXPECT_EQ(at_floor.candidates[0].status, "rejected");
-  EXPECT_NE(at_floor.candidates[0].reason.find("the baseline is within the floor: no excess to shrink"),
-            std::string::npos)
+  EXPECT_NE(at_floor.candidates[0].reason.find("no misfit to explain"), std::string::npos)
       << at_floor.candidates[0].reason;
+  // A significant score and a threefold shrink of an excess that is no misfit: friction's null
+  // twin 1 at 10 % with the baseline's curves at the repeats' scatter (hysteresis p 0.013, its
+  // tests' errors at most 1.12× their floors, excess 0.02 → 0.00 points; 2026-12-06).
+  DiscoverCandidate small = fitted("hysteresis", 0.013, 0.0112, 0.0095);
+  const DiscoverResult small_excess = judged({small});
+  EXPECT_EQ(small_excess.candidates[0].status, "rejected");
+  EXPECT_NE(small_excess.candidates[0].reason.find("calibrated p 0.013, but no test's error is above 2× its floor"),
+            std::string::npos)
+      << small_excess.candidates[0].reason;
+  // The same shrink from a misfit above twice the floor is named.
+  small.effect->error_without = small.effect->tests[0].error_without = 0.021;
+  EXPECT_EQ(judged({small}).named, std::vector<std::string>{"hysteresis"});
 }
 
 TEST(DiscoverJudge, NamesOnlyWhatHoldsOnHeldOutSpecimens) {
