@@ -221,9 +221,10 @@ void judge_one(const DiscoverOptions& options, double threshold, const std::map<
   std::string no_misfit;
   if (!real_misfit(e, floors, options.unexplained_ratio, std::isfinite(e.score) ? nullptr : richer, &no_misfit)) {
     c->status = kRejected;
-    c->reason = gain + (std::isfinite(e.score) ? fmt::format("; calibrated p {:.2g}, but ", e.score_p_value)
-                                               : std::string("; no score test, and ")) +
-                no_misfit;
+    const std::string evidence = std::isfinite(e.score)
+                                     ? fmt::format("calibrated p {:.2g} against α/n = {:.2g}", e.score_p_value, threshold)
+                                     : "no score test";
+    c->reason = gain + "; " + evidence + ", and " + no_misfit;
     return;
   }
   if (c->name == kCurveDegreeCandidate) {
