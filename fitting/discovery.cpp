@@ -542,6 +542,7 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
+// A test's repeats' scatter about their mean curve (repeat_floors, discovery.hpp).
 std::optional<double> repeat_floor(const TensileTest& test) {
   const std::optional<RepeatBranches> b = repeat_branches(test);
   if (!b) return std::nullopt;
@@ -918,59 +919,6 @@ struct DiscoverWork {
   }
 };
 
-}  // namespace
-
-std::string baseline_above_target(const FitReport& report, const Options& fit) {
-  for (const ComponentChoice& stage : fit.get_component_list("protocol")) {
-    if (stage.name != kTensileCurveStage) continue;
-    std::vector<double> errors;
-    for (const FitCurve& c : report.fit)
-      if (c.role == "fit" && same_angle(c.angle_deg, stage.options.get_double("angle_deg")))
-        errors.push_back(c.avg_rel_error);
-    const double target = stage.options.get_double("target_error");
-    if (!errors.empty() && mean(errors) > target)
-      return fmt::format("{} {:.2f} % against its target {:.2f} %", stage.options.get_string("label"),
-                         100 * mean(errors), 100 * target);
-  }
-  return "";
-}
-
-namespace {
-
-// The mean error of a fit's final curves over its fit runs.
-double fit_runs_mean_error(const FitReport& report) {
-  std::vector<double> errors;
-  for (const FitCurve& c : report.fit)
-    if (c.role == "fit") errors.push_back(c.avg_rel_error);
-  return mean(errors);
-}
-
-// The baseline's second pass (docs/discovery.md §1, Baseline): the protocol once more from the
-// first pass's parameters (start-from in place of initial-guess), so that each degree search
-// starts at its curve's degree with the other curves and the cutoffs as the first pass left
-// them. The first pass searches a curve's degree before the later stages move what it shares
-// with them: friction's null twin 1 at 10 % had its warp at 0.39 % (degree 2, target 0.41 %)
-// in the search and at 0.76 % once the weft and the cutoffs were in place (2026-12-06).
-void baseline_second_pass(const DiscoverWork& work, DiscoverResult* result) {
-  const std::string above = baseline_above_target(result->baseline, work.fit);
-  if (above.empty()) return;
-  if (work.progress) work.progress(0, "baseline: a second pass from the first's parameters (" + above + ")");
-  Options config = work.fit;
-  const std::string first = params_with_effects(result->baseline.parameters, {}, work.file("baseline-first-pass.yaml"),
-                                                work.registry);
-  std::vector<ComponentChoice> protocol = {start_from_stage(first, work.registry)};
-  for (const ComponentChoice& stage : work.fit.get_component_list("protocol"))
-    if (stage.name != kInitialGuessStage) protocol.push_back(stage);
-  config.set("protocol", protocol);
-  FitReport second = run_fit(work.dataset, config, work.registry, prefixed(work.progress, "baseline, second pass"));
-  const double before = fit_runs_mean_error(result->baseline), after = fit_runs_mean_error(second);
-  const bool better = after < before;
-  result->notes.push_back(fmt::format("the baseline's first pass left {}: a second pass from its parameters took the "
-                                      "fit runs' mean error {:.2f} → {:.2f} %{}",
-                                      above, 100 * before, 100 * after, better ? "" : ", so the first pass is kept"));
-  if (better) result->baseline = std::move(second);
-}
-
 // `effects` fitted from `start` (start-from + their effect-fit stages) on `dataset` at `level`
 // (the screening level unless given).
 FitReport fit_effects_from(const DiscoverWork& work, const Dataset& dataset, const MaterialParameters& start,
@@ -1111,6 +1059,50 @@ FitEffect fit_runs_error(const FitReport& report) {
   e.runs = static_cast<int>(errors.size());
   e.error_with = mean(errors);
   return e;
+}
+
+}  // namespace
+
+std::string baseline_above_target(const FitReport& report, const Options& fit) {
+  for (const ComponentChoice& stage : fit.get_component_list("protocol")) {
+    if (stage.name != kTensileCurveStage) continue;
+    std::vector<double> errors;
+    for (const FitCurve& c : report.fit)
+      if (same_angle(c.angle_deg, stage.options.get_double("angle_deg"))) errors.push_back(c.avg_rel_error);
+    const double target = stage.options.get_double("target_error");
+    if (!errors.empty() && mean(errors) > target)
+      return fmt::format("{} {:.2f} % against its target {:.2f} %", stage.options.get_string("label"),
+                         100 * mean(errors), 100 * target);
+  }
+  return "";
+}
+
+namespace {
+
+// The baseline's second pass (docs/discovery.md §1, Baseline): the protocol once more from the
+// first pass's parameters (start-from in place of initial-guess), so that each degree search
+// starts at its curve's degree with the other curves and the cutoffs as the first pass left
+// them. The first pass searches a curve's degree before the later stages move what it shares
+// with them: friction's null twin 1 at 10 % had its warp at 0.39 % (degree 2, target 0.41 %)
+// in the search and at 0.76 % once the weft and the cutoffs were in place (2026-12-06).
+void baseline_second_pass(const DiscoverWork& work, DiscoverResult* result) {
+  const std::string above = baseline_above_target(result->baseline, work.fit);
+  if (above.empty()) return;
+  if (work.progress) work.progress(0, "baseline: a second pass from the first's parameters (" + above + ")");
+  Options config = work.fit;
+  const std::string first = params_with_effects(result->baseline.parameters, {}, work.file("baseline-first-pass.yaml"),
+                                                work.registry);
+  std::vector<ComponentChoice> protocol = {start_from_stage(first, work.registry)};
+  for (const ComponentChoice& stage : work.fit.get_component_list("protocol"))
+    if (stage.name != kInitialGuessStage) protocol.push_back(stage);
+  config.set("protocol", protocol);
+  FitReport second = run_fit(work.dataset, config, work.registry, prefixed(work.progress, "baseline, second pass"));
+  const double before = fit_runs_error(result->baseline).error_with, after = fit_runs_error(second).error_with;
+  const bool better = after < before;
+  result->notes.push_back(fmt::format("the baseline's first pass left {}: a second pass from its parameters took the "
+                                      "fit runs' mean error {:.2f} → {:.2f} %{}",
+                                      above, 100 * before, 100 * after, better ? "" : ", so the first pass is kept"));
+  if (better) result->baseline = std::move(second);
 }
 
 // curve-degree's record: the errors of the baseline and of the raised curves on the same rows,

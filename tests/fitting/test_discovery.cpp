@@ -65,8 +65,8 @@ TEST(DiscoverJudge, RejectsWhatIsNotSignificantOrDoesNotShrinkEnough) {
   DiscoverCandidate small = fitted("hysteresis", 0.013, 0.0112, 0.0095);
   const DiscoverResult small_excess = judged({small});
   EXPECT_EQ(small_excess.candidates[0].status, "rejected");
-  EXPECT_NE(small_excess.candidates[0].reason.find("calibrated p 0.013 against α/n = 0.05, and no test's error is above 2× its floor"),
-            std::string::npos)
+  const std::string said = "calibrated p 0.013 against α/n = 0.05, and no test's error is above 2× its floor";
+  EXPECT_NE(small_excess.candidates[0].reason.find(said), std::string::npos)
       << small_excess.candidates[0].reason;
   // The same shrink from a misfit above twice the floor is named.
   small.effect->error_without = small.effect->tests[0].error_without = 0.021;

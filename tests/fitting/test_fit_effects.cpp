@@ -844,9 +844,10 @@ TEST(Discover, NamesNothingWhereNothingIsHidden) {
 // The baseline's degree search aims at the repeats' scatter, test by test: warp's three
 // specimens with 0.5 % noise (a floor measured at 0.22 %) lower its target_error to that
 // floor, under the protocol's 1 %; the weft's single specimen has no floor, and the bias' 5 %
-// noise (a floor of 2.50 %) is above the protocol's 2 %, so both keep theirs. Friction's null twin 1 named curve-degree over a warp left at 2×
-// its repeats' scatter (papers/discovery, 2026-12-06). Its second pass (baseline_above_target)
-// is taken when an angle's fit runs end above their target on average.
+// noise (a floor of 2.50 %) is above the protocol's 2 %, so both keep theirs. Friction's null
+// twin 1 named curve-degree over a warp left at 2× its repeats' scatter (papers/discovery,
+// 2026-12-06). Its second pass (baseline_above_target) is taken when an angle's fit runs end
+// above their target on average.
 TEST(Discover, TheBaselineAimsItsDegreeSearchAtTheRepeatsScatter) {
   const std::vector<double> three = {0.0, 0.0, 0.0}, scales = {1.12, 0.93, 0.96};
   const MaterialParameters truth = truth_with(default_choice(registry_category::kEffect, "hysteresis"));
@@ -859,7 +860,8 @@ TEST(Discover, TheBaselineAimsItsDegreeSearchAtTheRepeatsScatter) {
   const std::map<std::string, double> floors = repeat_floors(dataset);
   ASSERT_EQ(floors.count("warp"), 1u);
   ASSERT_EQ(floors.count("bias"), 1u);
-  std::printf("[measured] repeat floors: warp %.3f %%, bias %.3f %%\n", 100 * floors.at("warp"), 100 * floors.at("bias"));
+  std::printf("[measured] repeat floors: warp %.3f %%, bias %.3f %%\n", 100 * floors.at("warp"),
+              100 * floors.at("bias"));
   std::vector<std::string> notes;
   const Options config = discover_config({"protocol[2].target_error=0.02"});
   const Options baseline = discover_baseline_config(dataset, config, registry(), &notes);
