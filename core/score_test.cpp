@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <numeric>
 #include <random>
 #include <stdexcept>
@@ -132,6 +133,16 @@ struct ScoreBasis {
   Eigen::MatrixXd directions;  ///< eigenvectors of SᵀS kept as directions (d columns)
   Eigen::VectorXd lambda;      ///< their eigenvalues
   Eigen::Index remaining = 0;  ///< m − n_b − d
+  /// A candidate whose neutral value sits on a bound (score_test.hpp, `sides`): the least-squares
+  /// fits with every subset of its bounded columns held at zero, each kept when its bounded
+  /// coefficients point into the range.
+  struct Face {
+    Eigen::MatrixXd q;             ///< orthonormal basis of the free columns' span
+    Eigen::MatrixXd coefficients;  ///< their least-squares coefficients of a residual (k × m)
+    std::vector<Eigen::Index> bounded;  ///< rows of `coefficients` that must have the sign of
+    std::vector<int> sign;              ///< ... these
+  };
+  std::vector<Face> faces;  ///< empty: two-sided
 
   Eigen::MatrixXd project(const Eigen::MatrixXd& v) const { return v - q * (q.transpose() * v); }
 };
@@ -142,13 +153,34 @@ struct Statistic {
   Eigen::VectorXd part;   ///< the candidate's least-squares part of P r (P r = part + noise)
 };
 
+// The candidate's least-squares part of a projected residual within its range: the best of
+// the faces whose bounded coefficients point into it (the constrained least squares is the
+// unconstrained one on its own face, and every such feasible fit is a point of the range).
+Eigen::VectorXd part_within_range(const ScoreBasis& basis, const Eigen::VectorXd& free_residual) {
+  Eigen::VectorXd best = Eigen::VectorXd::Zero(free_residual.size());
+  double most = 0;
+  for (const ScoreBasis::Face& face : basis.faces) {
+    const Eigen::VectorXd c = face.coefficients * free_residual;
+    bool inside = true;
+    // r + S δ is what remains after a step δ, so the candidate's step is −c.
+    for (size_t k = 0; k < face.bounded.size(); ++k) inside = inside && face.sign[k] * c[face.bounded[k]] <= 0;
+    if (!inside) continue;
+    const Eigen::VectorXd along = face.q.transpose() * free_residual;
+    if (along.squaredNorm() > most) most = along.squaredNorm(), best = face.q * along;
+  }
+  return best;
+}
+
 Statistic statistic_of(const ScoreBasis& basis, const Eigen::VectorXd& r) {
   const Eigen::VectorXd free_residual = basis.project(r);
-  const Eigen::VectorXd along = basis.directions.transpose() * (basis.signature.transpose() * free_residual);
-  const Eigen::VectorXd coefficients = along.cwiseQuotient(basis.lambda);
-  const double explained = along.dot(coefficients);
   Statistic out;
-  out.part = basis.signature * (basis.directions * coefficients);
+  if (basis.faces.empty()) {
+    const Eigen::VectorXd along = basis.directions.transpose() * (basis.signature.transpose() * free_residual);
+    out.part = basis.signature * (basis.directions * along.cwiseQuotient(basis.lambda));
+  } else {
+    out.part = part_within_range(basis, free_residual);
+  }
+  const double explained = out.part.squaredNorm();  // (P r)ᵀ part: part is P r's projection
   out.noise = free_residual - out.part;
   // The noise the baseline and the candidate both leave: under the alternative the baseline's
   // residual holds the candidate's signal too, and a variance estimated from it caps T at m.
@@ -187,6 +219,39 @@ ScoreBasis basis_of(const Eigen::MatrixXd& baseline, const Eigen::MatrixXd& cand
   return basis;
 }
 
+// The faces of a candidate with bounded columns (ScoreBasis::faces; none when every side is 0):
+// for each subset of the bounded columns held at zero, the rest's least squares.
+void add_faces(const std::vector<int>& sides, double reference, ScoreBasis* basis) {
+  std::vector<Eigen::Index> bounded;
+  for (size_t j = 0; j < sides.size(); ++j)
+    if (sides[j] != 0) bounded.push_back(static_cast<Eigen::Index>(j));
+  if (bounded.empty()) return;
+  const Eigen::Index n = basis->signature.cols();
+  for (unsigned held = 0; held < (1u << bounded.size()); ++held) {
+    std::vector<Eigen::Index> columns;
+    ScoreBasis::Face face;
+    for (Eigen::Index j = 0; j < n; ++j) {
+      const auto at = std::find(bounded.begin(), bounded.end(), j);
+      const bool is_bounded = at != bounded.end();
+      if (is_bounded && (held >> (at - bounded.begin())) & 1u) continue;
+      if (is_bounded) {
+        face.bounded.push_back(static_cast<Eigen::Index>(columns.size()));
+        face.sign.push_back(sides[static_cast<size_t>(j)]);
+      }
+      columns.push_back(j);
+    }
+    const Eigen::MatrixXd s = basis->signature(Eigen::all, columns);
+    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(s, Eigen::ComputeThinU | Eigen::ComputeThinV);
+    std::vector<Eigen::Index> kept;
+    for (Eigen::Index k = 0; k < svd.singularValues().size(); ++k)
+      if (svd.singularValues()[k] > kRankTolerance * reference) kept.push_back(k);
+    face.q = svd.matrixU()(Eigen::all, kept);
+    face.coefficients = svd.matrixV()(Eigen::all, kept) *
+                        svd.singularValues()(kept).cwiseInverse().asDiagonal() * face.q.transpose();
+    basis->faces.push_back(std::move(face));
+  }
+}
+
 // One run's rows of the residual vector and the AR(1) noise fitted to them (score_test.hpp).
 struct RunNoise {
   Eigen::Index begin = 0, size = 0;
@@ -202,6 +267,66 @@ RunNoise fit_run_noise(const Eigen::VectorXd& u, Eigen::Index begin, Eigen::Inde
   const double raw = lagged > 0 ? rows.tail(size - 1).dot(rows.head(size - 1)) / lagged : 0.0;
   run.phi = std::clamp(raw + (1 + 3 * raw) / static_cast<double>(size), 0.0, kMaxCorrelation);
   return run;
+}
+
+// The instrument's noise profile (ScoreCalibration::measured): s_i = (1 − w) + w M/|y_i|, M
+// the median |y| of the instrument's rows (w = 0: noise relative to the reading, w = 1:
+// absolute), w on a grid of kProfileSteps by the Gaussian likelihood of `u` with each run's own
+// level profiled out, −Σ_r (n_r/2) log mean_r (u/s)² − Σ log s (its AR(1) ignored: the
+// profile is a property of the readings, the correlation of their order).
+constexpr int kProfileSteps = 100;
+
+Eigen::VectorXd instrument_profile(const Eigen::VectorXd& u, const Eigen::VectorXd& magnitude,
+                                   const std::vector<Eigen::Index>& run_rows, const std::vector<Eigen::Index>& run_begin) {
+  std::vector<double> all;
+  for (size_t r = 0; r < run_rows.size(); ++r)
+    for (Eigen::Index i = 0; i < run_rows[r]; ++i) all.push_back(magnitude[run_begin[r] + i]);
+  std::nth_element(all.begin(), all.begin() + static_cast<std::ptrdiff_t>(all.size() / 2), all.end());
+  const double median = all[all.size() / 2];
+  const auto profile_at = [&](double w, Eigen::Index row) { return (1 - w) + w * median / magnitude[row]; };
+  double best_w = 0, best = -std::numeric_limits<double>::infinity();
+  for (int k = 0; k <= kProfileSteps; ++k) {
+    const double w = static_cast<double>(k) / kProfileSteps;
+    double likelihood = 0;
+    for (size_t r = 0; r < run_rows.size(); ++r) {
+      double squares = 0;
+      for (Eigen::Index i = 0; i < run_rows[r]; ++i) {
+        const double s = profile_at(w, run_begin[r] + i);
+        squares += std::pow(u[run_begin[r] + i] / s, 2);
+        likelihood -= std::log(s);
+      }
+      if (squares > 0) likelihood -= 0.5 * static_cast<double>(run_rows[r]) * std::log(squares / static_cast<double>(run_rows[r]));
+    }
+    if (likelihood > best) best = likelihood, best_w = w;
+  }
+  Eigen::VectorXd s = Eigen::VectorXd::Ones(u.size());
+  for (size_t r = 0; r < run_rows.size(); ++r)
+    for (Eigen::Index i = 0; i < run_rows[r]; ++i) s[run_begin[r] + i] = profile_at(best_w, run_begin[r] + i);
+  return s;
+}
+
+// Each row's noise profile (ones without magnitudes): instrument_profile per instrument.
+Eigen::VectorXd noise_profile(const Eigen::VectorXd& u, const std::vector<Eigen::Index>& run_rows,
+                              const ScoreCalibration& calibration) {
+  if (calibration.measured.size() == 0) return Eigen::VectorXd::Ones(u.size());
+  if (calibration.measured.size() != u.size() || calibration.instruments.size() != run_rows.size() ||
+      !(calibration.measured.minCoeff() > 0))
+    throw std::invalid_argument("score_test: the measurements' magnitudes or the runs' instruments do not match");
+  std::map<int, std::pair<std::vector<Eigen::Index>, std::vector<Eigen::Index>>> by_instrument;  // rows, begins
+  Eigen::Index row = 0;
+  for (size_t r = 0; r < run_rows.size(); ++r) {
+    auto& [rows, begins] = by_instrument[calibration.instruments[r]];
+    rows.push_back(run_rows[r]);
+    begins.push_back(row);
+    row += run_rows[r];
+  }
+  Eigen::VectorXd s = Eigen::VectorXd::Ones(u.size());
+  for (const auto& [instrument, runs] : by_instrument) {
+    const Eigen::VectorXd one = instrument_profile(u, calibration.measured, runs.first, runs.second);
+    for (size_t r = 0; r < runs.first.size(); ++r)
+      s.segment(runs.second[r], runs.first[r]) = one.segment(runs.second[r], runs.first[r]);
+  }
+  return s;
 }
 
 Eigen::VectorXd draw_noise(const std::vector<RunNoise>& runs, Eigen::Index m, std::mt19937_64* engine) {
@@ -220,11 +345,13 @@ Eigen::VectorXd draw_noise(const std::vector<RunNoise>& runs, Eigen::Index m, st
 // B replicates of T*.
 void calibrate(const ScoreBasis& basis, const Statistic& observed, const std::vector<Eigen::Index>& run_rows,
                const ScoreCalibration& calibration, ScoreTest* out) {
+  const Eigen::VectorXd profile = noise_profile(observed.noise, run_rows, calibration);
+  const Eigen::VectorXd standardised = observed.noise.cwiseQuotient(profile);
   std::vector<RunNoise> runs;
   Eigen::Index row = 0;
   double correlation = 0;
   for (const Eigen::Index size : run_rows) {
-    runs.push_back(fit_run_noise(observed.noise, row, size));
+    runs.push_back(fit_run_noise(standardised, row, size));
     correlation += runs.back().phi / static_cast<double>(run_rows.size());
     row += size;
   }
@@ -234,13 +361,27 @@ void calibrate(const ScoreBasis& basis, const Statistic& observed, const std::ve
   std::normal_distribution<double> normal;
   int as_large = 0;
   for (int b = 0; b < calibration.replicates; ++b) {
-    Eigen::VectorXd e = draw_noise(runs, row, &engine);
+    Eigen::VectorXd e = draw_noise(runs, row, &engine).cwiseProduct(profile);
     if (shared.cols() > 0) e += shared * Eigen::VectorXd::NullaryExpr(shared.cols(), [&] { return normal(engine); });
     as_large += statistic_of(basis, e).t >= observed.t;
   }
   out->replicates = calibration.replicates;
   out->noise_correlation = correlation;
   out->p_value = (1.0 + as_large) / (1.0 + calibration.replicates);
+}
+
+}  // namespace
+
+namespace {
+
+// Each candidate unknown's side (score_test.hpp): +1 at its lower bound, −1 at its upper, 0
+// inside its range.
+std::vector<int> sides_at_bounds(const FitObjective& objective, const Eigen::VectorXd& x, int n_baseline) {
+  const Eigen::VectorXd lower = objective.lower_bounds(), upper = objective.upper_bounds();
+  std::vector<int> sides;
+  for (Eigen::Index j = n_baseline; j < x.size(); ++j)
+    sides.push_back(x[j] <= lower[j] ? 1 : x[j] >= upper[j] ? -1 : 0);
+  return sides;
 }
 
 }  // namespace
@@ -265,18 +406,22 @@ ScoreTest score_test(FitObjective& objective, const Eigen::VectorXd& x, int n_ba
   if (known_directions.cols() > 0) baseline.rightCols(known_directions.cols()) = known_directions;  // none: 0 × 0
   std::vector<Eigen::Index> run_rows;
   for (const Eigen::VectorXd& p : objective.last_predictions()) run_rows.push_back(p.size());
-  return score_test(r, baseline, jacobian.rightCols(n - n_baseline), run_rows, calibration);
+  return score_test(r, baseline, jacobian.rightCols(n - n_baseline), run_rows, calibration,
+                    sides_at_bounds(objective, x, n_baseline));
 }
 
 ScoreTest score_test(const Eigen::VectorXd& r, const Eigen::MatrixXd& baseline, const Eigen::MatrixXd& candidate,
-                     const std::vector<Eigen::Index>& run_rows, const ScoreCalibration& calibration) {
+                     const std::vector<Eigen::Index>& run_rows, const ScoreCalibration& calibration,
+                     const std::vector<int>& sides) {
   if (baseline.rows() != r.size() || candidate.rows() != r.size() ||
-      std::accumulate(run_rows.begin(), run_rows.end(), Eigen::Index{0}) != r.size())
-    throw std::invalid_argument("score_test: the residuals, the directions and the runs' rows do not match");
+      std::accumulate(run_rows.begin(), run_rows.end(), Eigen::Index{0}) != r.size() ||
+      (!sides.empty() && sides.size() != static_cast<size_t>(candidate.cols())))
+    throw std::invalid_argument("score_test: the residuals, the directions, the runs' rows and the sides do not match");
   if (calibration.shared_noise.cols() > 0 && calibration.shared_noise.rows() != r.size())
     throw std::invalid_argument("score_test: the shared noise's rows do not match the residuals'");
   ScoreTest out;
   ScoreBasis basis = basis_of(baseline, candidate, &out);
+  add_faces(sides, candidate.norm(), &basis);
   basis.remaining = r.size() - basis.q.cols() - out.dof;
   if (basis.remaining <= 0) {  // nothing left to judge the noise by
     out.sigma2 = std::numeric_limits<double>::quiet_NaN();

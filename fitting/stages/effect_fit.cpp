@@ -251,6 +251,10 @@ class EffectFit final : public FitStage {
 
   bool bends() const { return options_.observable == "chord_angle_deg"; }
 
+  /// The instruments whose noise the score test's calibration profiles apart
+  /// (ScoreCalibration::instruments).
+  enum Instrument { kLoadCell, kLateralGauge };
+
   // What the lateral strains carry beside each run's noise, on the predictors' rows (none
   // without lateral rows): the curves' levels (lateral_level_noise) and the mesh's and the
   // cuts' patterns (lateral_known_directions).
@@ -519,6 +523,9 @@ class EffectFit final : public FitStage {
     Eigen::VectorXd r(m);
     Eigen::MatrixXd baseline = Eigen::MatrixXd::Zero(m, n_runs + n_tests);  // scales, then common offsets
     Eigen::MatrixXd offsets = Eigen::MatrixXd::Zero(m, n_runs);
+    ScoreCalibration calibration;  // one instrument, the load cell (set_instruments)
+    calibration.measured.resize(m);
+    calibration.instruments.assign(runs.size(), kLoadCell);
     ValidationEvidence evidence;
     std::vector<double> with;
     std::vector<std::string> tests;
@@ -539,6 +546,7 @@ class EffectFit final : public FitStage {
       const auto t = static_cast<Eigen::Index>(std::find(tests_of_runs.begin(), tests_of_runs.end(), runs[k]->test) -
                                                tests_of_runs.begin());
       r.segment(row, rows[k]) = (s * f - measured).cwiseQuotient(measured.cwiseAbs());
+      calibration.measured.segment(row, rows[k]) = measured.cwiseAbs();
       baseline.col(i).segment(row, rows[k]) = (s * f).cwiseQuotient(measured.cwiseAbs());
       baseline.col(n_runs + t).segment(row, rows[k]) = slope;
       offsets.col(i).segment(row, rows[k]) = slope;
@@ -567,7 +575,7 @@ class EffectFit final : public FitStage {
         }
       }
     }
-    const ScoreTest t = score_test(r, baseline, offsets, rows);
+    const ScoreTest t = score_test(r, baseline, offsets, rows, calibration);
     FitEffect& result = evidence.record;
     result.effect = options_.effect;
     result.resolution = resolution_at(context, level);
@@ -785,6 +793,7 @@ class EffectFit final : public FitStage {
     try {
       ScoreCalibration calibration;
       calibration.shared_noise = lateral.level;
+      set_instruments(predictors, &calibration);
       const ScoreTest t = score_at(context, neutral_params(context, configured), free, n_effect, map_options, predictors,
                                    force_runs, calibration, lateral.known);
       set_score(t, result);
@@ -794,6 +803,22 @@ class EffectFit final : public FitStage {
       context.note("effect " + options_.effect + ": score test not evaluated: " + e.what());
     }
     return {};
+  }
+
+  // The calibration's instruments (ScoreCalibration::measured): each row's |measured| and each
+  // run's instrument, the load cell for the force runs (the first), the lateral strains' gauge
+  // for the lateral runs.
+  void set_instruments(const std::vector<std::shared_ptr<Predictor>>& predictors, ScoreCalibration* calibration) const {
+    Eigen::Index rows = 0;
+    for (const auto& p : predictors) rows += p->measured().size();
+    calibration->measured.resize(rows);
+    rows = 0;
+    for (size_t i = 0; i < predictors.size(); ++i) {
+      const Eigen::VectorXd& measured = predictors[i]->measured();
+      calibration->measured.segment(rows, measured.size()) = measured.cwiseAbs();
+      calibration->instruments.push_back(i < runs_.size() ? kLoadCell : kLateralGauge);
+      rows += measured.size();
+    }
   }
 
   // The chord angles' test at the effect's neutral values (docs/effects/bending-anisotropy.md,

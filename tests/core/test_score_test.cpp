@@ -313,6 +313,100 @@ TEST(ScoreTest, NoiseSharedByTheRunsIsDrawnInTheCalibrationAndKeepsTheSize) {
   EXPECT_THROW(score_test(Eigen::VectorXd::Zero(m), baseline, candidate, run_rows, with), std::invalid_argument);
 }
 
+// A load cell's noise, sd a + b|y|, is in relative residuals b(1 + (a/b)/|y|): large at the low
+// readings. Drawn alike along each run, the calibration's noise there is a fraction of the
+// data's, and a candidate whose signature sits at the low readings is "found" in null data;
+// with the readings' magnitudes (ScoreCalibration::measured) the profile is fitted and drawn,
+// and the test keeps its size. Three runs of 20 rows, |y| from 0.4 to 20 (a bias strip's
+// newtons), a = 0.05, b = 0.005 (papers/hidden_effects' noise); each run its own intercept; the
+// candidate 1/|y| on the first half of each run (a pattern of the low readings).
+TEST(ScoreTest, NoiseThatGrowsAtLowReadingsIsProfiledInTheCalibrationAndKeepsTheSize) {
+  constexpr int kRuns = 3, kRows = 20, kDraws = 300;
+  constexpr double kAbsolute = 0.05, kRelative = 0.005, kLowest = 0.4, kHighest = 20, kTerm = 0.15;
+  const Eigen::Index m = kRuns * kRows;
+  Eigen::MatrixXd baseline = Eigen::MatrixXd::Zero(m, kRuns), candidate = Eigen::MatrixXd::Zero(m, 1);
+  Eigen::VectorXd magnitude(m), sd(m);
+  for (int r = 0; r < kRuns; ++r)
+    for (int i = 0; i < kRows; ++i) {
+      const Eigen::Index row = r * kRows + i;
+      magnitude[row] = kLowest * std::pow(kHighest / kLowest, static_cast<double>(i) / (kRows - 1));
+      sd[row] = (kAbsolute + kRelative * magnitude[row]) / magnitude[row];
+      baseline(row, r) = 1;
+      if (i < kRows / 2) candidate(row, 0) = 1 / magnitude[row];
+    }
+  const std::vector<Eigen::Index> run_rows(kRuns, kRows);
+  ScoreCalibration alike, profiled;
+  alike.replicates = profiled.replicates = 199;
+  profiled.measured = magnitude;
+  profiled.instruments.assign(kRuns, 0);
+  std::mt19937_64 engine(17);
+  std::normal_distribution<double> normal;
+  int rejected_alike = 0, rejected_profiled = 0, found = 0;
+  for (int k = 0; k < kDraws; ++k) {
+    const Eigen::VectorXd r = sd.cwiseProduct(Eigen::VectorXd::NullaryExpr(m, [&] { return normal(engine); }));
+    alike.seed = profiled.seed = 200 + k;
+    rejected_alike += score_test(r, baseline, candidate, run_rows, alike).p_value < 0.05;
+    rejected_profiled += score_test(r, baseline, candidate, run_rows, profiled).p_value < 0.05;
+    found += score_test(r + kTerm * candidate.col(0), baseline, candidate, run_rows, profiled).p_value < 0.05;
+  }
+  std::printf("[measured] score test with noise a + b|y| (a/b = %g, |y| %g..%g): %d of %d rejected at 5 %% drawn "
+              "alike along each run, %d profiled; a term of %g/|y| found in %d\n", kAbsolute / kRelative, kLowest,
+              kHighest, rejected_alike, kDraws, rejected_profiled, kTerm, found);
+  // Binomial(300, 0.05): 15 ± 3.8; three standard deviations above is 26.
+  EXPECT_LE(rejected_profiled, 26);
+  EXPECT_GT(rejected_alike, 2 * 26);
+  EXPECT_GT(found, kDraws * 3 / 4);
+  profiled.instruments.pop_back();
+  EXPECT_THROW(score_test(Eigen::VectorXd::Zero(m), baseline, candidate, run_rows, profiled), std::invalid_argument);
+}
+
+// A candidate whose neutral value is on its bound (a friction of 0) can only move one way: a
+// residual it would explain with a negative friction is no evidence for it. With `sides` T is
+// the one-sided statistic (its least squares within the range), the same T as two-sided for a
+// residual along the feasible direction and 0 against it; the calibration computes each T*
+// the same way, so the test keeps its size. Two candidate columns, one bounded below and one
+// free, on iid noise; the step that explains a residual r is −c, c r's coefficients.
+TEST(ScoreTest, ACandidateOnItsBoundIsTestedOneSided) {
+  constexpr int kRows = 60, kDraws = 300;
+  const Eigen::Index m = kRows;
+  Eigen::MatrixXd baseline = Eigen::MatrixXd::Ones(m, 1), candidate(m, 2);
+  for (Eigen::Index i = 0; i < m; ++i) {
+    const double x = static_cast<double>(i) / m;
+    candidate(i, 0) = x * x;
+    candidate(i, 1) = std::sin(6 * x);
+  }
+  const std::vector<Eigen::Index> run_rows(1, m);
+  const std::vector<int> bounded_below = {1, 0};
+  std::mt19937_64 engine(19);
+  std::normal_distribution<double> normal;
+  const Eigen::VectorXd noise = Eigen::VectorXd::NullaryExpr(m, [&] { return 0.01 * normal(engine); });
+  ScoreCalibration calibration;
+  calibration.replicates = 199;
+  // r = −S δ: the residual a step δ explains. Feasible (δ₀ > 0): as two-sided; infeasible: the
+  // free column's part only.
+  const Eigen::VectorXd feasible = noise - candidate.col(0), infeasible = noise + candidate.col(0);
+  const ScoreTest two = score_test(feasible, baseline, candidate, run_rows, calibration);
+  EXPECT_NEAR(score_test(feasible, baseline, candidate, run_rows, calibration, bounded_below).statistic, two.statistic,
+              1e-9 * two.statistic);
+  // Against it, what the free column alone explains: its own test's T, whose σ² has one
+  // residual degree of freedom more (m − 2 against m − 3), and far below the two-sided T.
+  const double free_alone =
+      score_test(infeasible, baseline, candidate.rightCols(1), run_rows, calibration).statistic * (m - 3.0) / (m - 2.0);
+  const double one_sided = score_test(infeasible, baseline, candidate, run_rows, calibration, bounded_below).statistic;
+  EXPECT_NEAR(one_sided, free_alone, 1e-9 * free_alone);
+  EXPECT_LT(one_sided, 0.01 * score_test(infeasible, baseline, candidate, run_rows, calibration).statistic);
+  int rejected = 0;
+  for (int k = 0; k < kDraws; ++k) {
+    calibration.seed = 300 + k;
+    const Eigen::VectorXd r = Eigen::VectorXd::NullaryExpr(m, [&] { return normal(engine); });
+    rejected += score_test(r, baseline, candidate, run_rows, calibration, bounded_below).p_value < 0.05;
+  }
+  std::printf("[measured] one-sided score test: %d of %d null draws rejected at 5 %%\n", rejected, kDraws);
+  EXPECT_LE(rejected, 26);  // Binomial(300, 0.05) + 3 sd
+  EXPECT_GE(rejected, 5);   // and not empty: the statistic is not always 0
+  EXPECT_THROW(score_test(noise, baseline, candidate, run_rows, calibration, {1}), std::invalid_argument);
+}
+
 // The candidate's directions beyond the baseline are counted from the signature's singular
 // values, not from the eigenvalues of its Gram matrix, whose round-off (ε‖SᵀS‖) is far above
 // the rank tolerance squared: with two observations and one baseline direction (the two
