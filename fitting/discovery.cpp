@@ -941,23 +941,129 @@ void say_fitted(const DiscoverWork& work, const DiscoverCandidate& c, Clock::tim
                                seconds));
 }
 
-// Each testable candidate fitted alone from the baseline; its report kept by name for the refit.
-void fit_candidates(const DiscoverWork& work, DiscoverResult* result, std::map<std::string, FitReport>* reports) {
-  for (DiscoverCandidate& c : result->candidates) {
-    if (!c.status.empty() || c.name == kCurveDegreeCandidate) continue;  // not an effect: fit_curve_degree
-    const auto t = Clock::now();
-    if (work.progress) work.progress(0, "candidate " + c.name + ": fitting it with the curves, from the baseline");
-    try {
-      FitReport r = fit_effects_from(work, work.dataset, result->baseline.parameters, {c.name}, c.name);
-      const FitEffect* e = record_of(r.effects, c.name);
-      if (!e) throw std::runtime_error("its effect-fit stage did not run");
-      c.effect = *e;
-      (*reports)[c.name] = std::move(r);
-    } catch (const std::exception& e) {
-      c.status = kFailed;
-      c.reason = std::string("the fit with it failed: ") + e.what();
+// One effect fitted alone from the baseline (fit_candidates); its report kept by name for the
+// refit.
+void fit_candidate(const DiscoverWork& work, DiscoverCandidate* c, std::map<std::string, FitReport>* reports) {
+  const auto t = Clock::now();
+  if (work.progress) work.progress(0, "candidate " + c->name + ": fitting it with the curves, from the baseline");
+  try {
+    FitReport r = fit_effects_from(work, work.dataset, *work.baseline, {c->name}, c->name);
+    const FitEffect* e = record_of(r.effects, c->name);
+    if (!e) throw std::runtime_error("its effect-fit stage did not run");
+    c->effect = *e;
+    (*reports)[c->name] = std::move(r);
+  } catch (const std::exception& e) {
+    c->status = kFailed;
+    c->reason = std::string("the fit with it failed: ") + e.what();
+  }
+  say_fitted(work, *c, t);
+}
+
+// Whether the registered effect `name` is an angle offset (misalignment: per-strip values found
+// by fitting, judged on the validation strips).
+bool is_angle_offset_effect(const Registry& registry, const std::string& name) {
+  return is_angle_offset(*registry.create<EffectFactories>(registry_category::kEffect, neutral_effect(name, registry)));
+}
+
+// Whether the dataset has validation strips (an angle-offset effect is judged on them, with a
+// score test, instead of on the fit strips).
+bool has_validation_strips(const Dataset& dataset) {
+  return std::any_of(dataset.tensile.begin(), dataset.tensile.end(),
+                     [](const TensileTest& t) { return t.role == TestRole::Validation && !t.runs.empty(); });
+}
+
+// Whether a candidate costs a refit of the curves with no score test to screen it: curve-degree,
+// and an angle-offset effect on the fit strips (misalignment's offsets, three rounds each with a
+// joint refit of the curves: 1116 s of friction's null twin 1 at 10 %, session 29).
+bool fitted_unscreened(const DiscoverWork& work, const DiscoverCandidate& c) {
+  return c.name == kCurveDegreeCandidate ||
+         (is_angle_offset_effect(work.registry, c.name) && !has_validation_strips(work.dataset));
+}
+
+// The misfit the score-tested candidates see (their tests' errors without them), as a multiple of
+// each test's floor: the smaller of the effects' floors (floors_by_test) and the repeats' scatter.
+// None of these is larger than the floor real_misfit judges a candidate against, nor than the one
+// unexplained_misfit calls a misfit unexplained against (that adds the resolution error to the
+// repeats' scatter). NaN when no score-tested candidate was fitted.
+double largest_misfit(const DiscoverWork& work, const DiscoverResult& result, std::string* where) {
+  const std::map<std::string, double> effects = floors_by_test(result.candidates), repeats = repeat_floors(work.dataset);
+  double largest = std::numeric_limits<double>::quiet_NaN();
+  for (const DiscoverCandidate& c : result.candidates) {
+    if (!c.effect || !std::isfinite(c.effect->score)) continue;
+    largest = std::isfinite(largest) ? largest : 0.0;
+    for (const FitEffectTest& t : c.effect->tests) {
+      double floor = std::numeric_limits<double>::infinity();
+      if (const auto e = effects.find(t.test); e != effects.end() && e->second > 0) floor = e->second;
+      if (const auto r = repeats.find(t.test); r != repeats.end() && r->second > 0) floor = std::min(floor, r->second);
+      if (std::isfinite(floor) && t.error_without / floor > largest) largest = t.error_without / floor, *where = t.test;
     }
-    say_fitted(work, c, t);
+  }
+  return largest;
+}
+
+// The fit runs' errors of a fit's final curves (report.fit: each run at its kept specimen scale)
+// as an effect-fit record's error_with and per-test errors: what curve-degree is measured on
+// when no tested effect's rows are the tensile runs'.
+FitEffect fit_runs_error(const FitReport& report) {
+  FitEffect e;
+  std::vector<double> errors;
+  for (const FitCurve& c : report.fit) {
+    auto t = std::find_if(e.tests.begin(), e.tests.end(), [&](const FitEffectTest& x) { return x.test == c.label; });
+    if (t == e.tests.end()) t = e.tests.insert(t, FitEffectTest{c.label, 0, 0, 0});
+    t->error_with += c.avg_rel_error;
+    ++t->runs;
+    errors.push_back(c.avg_rel_error);
+    e.points += static_cast<int>(c.measured_N.size());
+  }
+  if (errors.empty()) throw std::runtime_error("the fit recorded no fit-run curves to measure the richer curves on");
+  for (FitEffectTest& t : e.tests) t.error_with /= t.runs;
+  e.runs = static_cast<int>(errors.size());
+  e.error_with = mean(errors);
+  return e;
+}
+
+// The misfit on an angle-offset effect's own rows, the fit runs' loading (the baseline's curves,
+// fit_runs_error), as a multiple of each test's effects' floor — the floor its judge's real
+// misfit is measured against (judge_one). NaN without floors (no score-tested candidate) or
+// without the fit runs' curves (a protocol with no final-curves stage).
+double largest_loading_misfit(const DiscoverResult& result, std::string* where) {
+  const std::map<std::string, double> floors = floors_by_test(result.candidates);
+  if (floors.empty() || result.baseline.fit.empty()) return std::numeric_limits<double>::quiet_NaN();
+  double largest = 0;
+  for (const FitEffectTest& t : fit_runs_error(result.baseline).tests)
+    if (const auto f = floors.find(t.test); f != floors.end() && f->second > 0 && t.error_with / f->second > largest)
+      largest = t.error_with / f->second, *where = t.test;
+  return largest;
+}
+
+// Each testable candidate fitted alone from the baseline (fit_candidate). The score-tested ones
+// first: when none of their tests is above unexplained_ratio × its floor
+// (largest_misfit), no candidate can pass the judge's real misfit and the verdict cannot be
+// `unexplained`, so the unscreened candidates (fitted_unscreened) are rejected unfitted, with the
+// reason (measured: friction's null twin 1, session 30).
+void fit_candidates(const DiscoverWork& work, const DiscoverOptions& options, DiscoverResult* result,
+                    std::map<std::string, FitReport>* reports) {
+  for (DiscoverCandidate& c : result->candidates)
+    if (c.status.empty() && !fitted_unscreened(work, c)) fit_candidate(work, &c, reports);
+  std::string where;
+  const double largest = largest_misfit(work, *result, &where);
+  for (DiscoverCandidate& c : result->candidates) {
+    if (!c.status.empty() || !fitted_unscreened(work, c)) continue;
+    const bool offsets = c.name != kCurveDegreeCandidate;
+    std::string at;
+    const double own = offsets ? largest_loading_misfit(*result, &at) : largest;
+    if (std::isfinite(own) && own <= options.unexplained_ratio) {
+      c.status = kRejected;
+      c.reason = offsets ? fmt::format("not fitted: no test of its rows (the fit runs' loading) is above {:g}× its floor "
+                                       "(largest {:.2f}×, {}), so it has no misfit to explain",
+                                       options.unexplained_ratio, own, at)
+                         : fmt::format("not fitted: no test's error is above {:g}× its floor (largest {:.2f}×, {}), so "
+                                       "no candidate can explain a misfit and none is unexplained",
+                                       options.unexplained_ratio, own, where);
+      if (work.progress) work.progress(0, "candidate " + c.name + ": " + c.reason);
+    } else if (offsets) {
+      fit_candidate(work, &c, reports);
+    }
   }
 }
 
@@ -1010,12 +1116,6 @@ Options thickness_refit_config(const DiscoverWork& work, const std::string& para
   return config;
 }
 
-// Whether the registered effect `name` is an angle offset (misalignment: per-strip values found
-// by fitting, judged on the validation strips).
-bool is_angle_offset_effect(const Registry& registry, const std::string& name) {
-  return is_angle_offset(*registry.create<EffectFactories>(registry_category::kEffect, neutral_effect(name, registry)));
-}
-
 // The rows that measure curve-degree: those of the tested effect fitted on the most points among
 // the ones with a score test (the whole path, both speeds, lateral strain: what they need) —
 // not an angle-offset effect's, whose rows are the validation strips and whose stage cannot
@@ -1040,26 +1140,6 @@ FitEffect rows_error(const DiscoverWork& work, const MaterialParameters& params,
   return *e;
 }
 
-// The fit runs' errors of a fit's final curves (report.fit: each run at its kept specimen scale)
-// as an effect-fit record's error_with and per-test errors: what curve-degree is measured on
-// when no tested effect's rows are the tensile runs'.
-FitEffect fit_runs_error(const FitReport& report) {
-  FitEffect e;
-  std::vector<double> errors;
-  for (const FitCurve& c : report.fit) {
-    auto t = std::find_if(e.tests.begin(), e.tests.end(), [&](const FitEffectTest& x) { return x.test == c.label; });
-    if (t == e.tests.end()) t = e.tests.insert(t, FitEffectTest{c.label, 0, 0, 0});
-    t->error_with += c.avg_rel_error;
-    ++t->runs;
-    errors.push_back(c.avg_rel_error);
-    e.points += static_cast<int>(c.measured_N.size());
-  }
-  if (errors.empty()) throw std::runtime_error("the fit recorded no fit-run curves to measure the richer curves on");
-  for (FitEffectTest& t : e.tests) t.error_with /= t.runs;
-  e.runs = static_cast<int>(errors.size());
-  e.error_with = mean(errors);
-  return e;
-}
 
 }  // namespace
 
@@ -1310,6 +1390,88 @@ void held_out_folds(DiscoverWork& work, const std::string& effect, const std::ve
 
 }  // namespace
 
+// The joint refit of two or more named effects (refit_jointly): their names and, for two, the
+// refit in the other order.
+struct JointRefit {
+  std::vector<std::string> effects;  ///< empty: none made
+  std::optional<FitReport> reversed;
+  const std::vector<FitEffect>* records(const DiscoverResult& result) const {
+    return effects.empty() || !result.refit ? nullptr : &result.refit->effects;
+  }
+  const std::vector<FitEffect>* reversed_records() const { return reversed ? &reversed->effects : nullptr; }
+};
+
+bool names_curve_degree(const std::vector<std::string>& names) {
+  return std::find(names.begin(), names.end(), kCurveDegreeCandidate) != names.end();
+}
+
+// `effects` refitted together from the baseline at its finest level (result->refit), and for
+// two also in the other order at the screening level, each scored after the other (the
+// pairwise rule, resolve_pair); the candidates judged with them.
+void refit_jointly(DiscoverWork& work, const DiscoverOptions& options, const std::vector<std::string>& effects,
+                   DiscoverResult* result, JointRefit* joint) {
+  const FitProgress& progress = work.progress;
+  if (progress)
+    progress(0, fmt::format("refit: {}{}, from the baseline, at {}", yaml_list(effects), effects.size() > 1 ? " jointly" : "",
+                            result->baseline.finest_resolution));
+  const auto t_refit = Clock::now();
+  result->refit = fit_effects_from(work, work.dataset, result->baseline.parameters, effects, "refit",
+                                   result->baseline.finest_level);
+  work.timed("refit", t_refit);
+  joint->effects = effects;
+  if (effects.size() == 2) {
+    // The other order, at the screening level: each effect scored after the other.
+    if (progress) progress(0, fmt::format("refit: [{}, {}] in the other order, at the screening level", effects[1], effects[0]));
+    const auto t_reverse = Clock::now();
+    try {
+      joint->reversed = fit_effects_from(work, work.dataset, result->baseline.parameters, {effects[1], effects[0]},
+                                         "refit reversed");
+    } catch (const std::exception& e) {
+      // Only a judge's aid: without it, the protocol's order and the alone fits decide.
+      result->notes.push_back(std::string("the refit in the other order failed, so only the first order was scored: ") + e.what());
+      if (progress) progress(0, "refit reversed: failed: " + std::string(e.what()));
+    }
+    work.timed("refit reversed", t_reverse);
+  }
+  if (effects.size() >= 2) judge_candidates(options, &result->refit->effects, result, joint->reversed_records());
+}
+
+// The held-out check of each named effect, and of the two a joint refit tied; an effect the
+// pairwise rule rejected gets none (a note says why).
+void check_held_out(DiscoverWork& work, const JointRefit& joint, DiscoverResult* result) {
+  for (DiscoverCandidate& c : result->candidates) {
+    if (c.name == kCurveDegreeCandidate) continue;
+    const bool in_joint = std::find(joint.effects.begin(), joint.effects.end(), c.name) != joint.effects.end();
+    if (c.status == kNamed || (in_joint && c.status == kTied))
+      c.held_out = held_out_check(work, c);
+    else if (in_joint && c.status == kRejected)
+      c.held_out.note = "the pairwise rule rejected it first";
+  }
+}
+
+// The refit the report gives (result->refit): the joint refit where its effects are still what
+// the judge names (or ties); otherwise the named ones' own — curve-degree's screening fit, a
+// joint refit of two or more, one effect refitted at the finest level, or its screening fit
+// where that is the finest. The rejected effect of a pair is not in it: params.yaml holds what
+// is named (session 30: a pair's loser, rate-dependence, was in the 75 mm discover's params.yaml).
+void refit_named(DiscoverWork& work, const DiscoverOptions& options, const std::map<std::string, FitReport>& reports,
+                 JointRefit& joint, DiscoverResult* result) {
+  const std::vector<std::string> passing = with_status(*result, kNamed);
+  const bool joint_stands = !joint.effects.empty() &&
+                            (passing == joint.effects || with_status(*result, kTied) == joint.effects);
+  if (joint_stands) return;
+  result->refit.reset();
+  joint = {};
+  if (passing == std::vector<std::string>{kCurveDegreeCandidate}) {
+    result->refit = reports.at(kCurveDegreeCandidate);
+    result->notes.push_back("the named richer curves are those of the screening level (curve-degree is not refitted at the finest)");
+  } else if (passing.size() >= 2 || (passing.size() == 1 && work.level < result->baseline.finest_level)) {
+    refit_jointly(work, options, passing, result, &joint);
+  } else if (passing.size() == 1) {
+    result->refit = reports.at(passing.front());
+  }
+}
+
 DiscoverResult run_discover(const Dataset& dataset, const Options& config, const Registry& registry,
                             const FitProgress& progress) {
   const auto t0 = Clock::now();
@@ -1336,45 +1498,18 @@ DiscoverResult run_discover(const Dataset& dataset, const Options& config, const
                             work.level < result.baseline.finest_level ? " and the refit of named effects" : "",
                             result.baseline.finest_resolution));
   std::map<std::string, FitReport> reports;
-  fit_candidates(work, &result, &reports);
+  fit_candidates(work, options, &result, &reports);
   fit_curve_degree(work, &result, &reports);
   judge_candidates(options, nullptr, &result);
-  if (options.held_out)
-    for (DiscoverCandidate& c : result.candidates)
-      if (c.status == kNamed && c.name != kCurveDegreeCandidate) c.held_out = held_out_check(work, c);
-  judge_candidates(options, nullptr, &result);
-  const std::vector<std::string> passing = with_status(result, kNamed);
-  if (passing == std::vector<std::string>{kCurveDegreeCandidate}) {
-    result.refit = reports.at(kCurveDegreeCandidate);
-    result.notes.push_back("the named richer curves are those of the screening level (curve-degree is not refitted at the finest)");
-  } else if (passing.size() >= 2 || (passing.size() == 1 && work.level < result.baseline.finest_level)) {
-    if (progress)
-      progress(0, fmt::format("refit: {}{}, from the baseline, at {}", yaml_list(passing), passing.size() > 1 ? " jointly" : "",
-                              result.baseline.finest_resolution));
-    const auto t_refit = Clock::now();
-    result.refit = fit_effects_from(work, dataset, result.baseline.parameters, passing, "refit", result.baseline.finest_level);
-    work.timed("refit", t_refit);
-    if (passing.size() == 2) {
-      // The other order, at the screening level: each effect scored after the other.
-      if (progress) progress(0, fmt::format("refit: [{}, {}] in the other order, at the screening level", passing[1], passing[0]));
-      const auto t_reverse = Clock::now();
-      try {
-        const FitReport reverse = fit_effects_from(work, dataset, result.baseline.parameters, {passing[1], passing[0]}, "refit reversed");
-        work.timed("refit reversed", t_reverse);
-        judge_candidates(options, &result.refit->effects, &result, &reverse.effects);
-      } catch (const std::exception& e) {
-        // Only a judge's aid: without it, the protocol's order and the alone fits decide.
-        work.timed("refit reversed", t_reverse);
-        result.notes.push_back(std::string("the refit in the other order failed, so only the first order was scored: ") + e.what());
-        if (progress) progress(0, "refit reversed: failed: " + std::string(e.what()));
-        judge_candidates(options, &result.refit->effects, &result);
-      }
-    } else if (passing.size() > 2) {
-      judge_candidates(options, &result.refit->effects, &result);
-    }
-  } else if (passing.size() == 1) {
-    result.refit = reports.at(passing.front());
-  }
+  // The pairwise rule before the held-out checks: of two passing effects, the one that adds
+  // nothing beside the other is rejected without its check (on the 75 mm five-specimen
+  // friction dataset rate-dependence's two folds took 250 s of 1164, session 30).
+  JointRefit joint;
+  if (const std::vector<std::string> first = with_status(result, kNamed); first.size() == 2 && !names_curve_degree(first))
+    refit_jointly(work, options, first, &result, &joint);
+  if (options.held_out) check_held_out(work, joint, &result);
+  judge_candidates(options, joint.records(result), &result, joint.reversed_records());
+  refit_named(work, options, reports, joint, &result);
   measure_gap(result, floors_by_test(result.candidates), &result.gap, &result.gap_rows, &result.curves);
   const std::map<std::string, double> repeats = repeat_floors(dataset);
   for (DiscoverGap& g : result.gap)
