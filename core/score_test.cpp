@@ -370,10 +370,6 @@ void calibrate(const ScoreBasis& basis, const Statistic& observed, const std::ve
   out->p_value = (1.0 + as_large) / (1.0 + calibration.replicates);
 }
 
-}  // namespace
-
-namespace {
-
 // Each candidate unknown's side (score_test.hpp): +1 at its lower bound, −1 at its upper, 0
 // inside its range.
 std::vector<int> sides_at_bounds(const FitObjective& objective, const Eigen::VectorXd& x, int n_baseline) {

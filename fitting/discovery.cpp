@@ -980,6 +980,17 @@ bool fitted_unscreened(const DiscoverWork& work, const DiscoverCandidate& c) {
          (is_angle_offset_effect(work.registry, c.name) && !has_validation_strips(work.dataset));
 }
 
+// A test's floor in `floors`; +∞ where it has none (or none above 0).
+double floor_of(const std::map<std::string, double>& floors, const std::string& test) {
+  const auto f = floors.find(test);
+  return f != floors.end() && f->second > 0 ? f->second : std::numeric_limits<double>::infinity();
+}
+
+// *largest and *where become `error` / `floor` and `test` where that ratio is larger.
+void keep_larger_ratio(const std::string& test, double error, double floor, double* largest, std::string* where) {
+  if (std::isfinite(floor) && error / floor > *largest) *largest = error / floor, *where = test;
+}
+
 // The misfit the score-tested candidates see (their tests' errors without them), as a multiple of
 // each test's floor: the smaller of the effects' floors (floors_by_test) and the repeats' scatter.
 // None of these is larger than the floor real_misfit judges a candidate against, nor than the one
@@ -991,12 +1002,9 @@ double largest_misfit(const DiscoverWork& work, const DiscoverResult& result, st
   for (const DiscoverCandidate& c : result.candidates) {
     if (!c.effect || !std::isfinite(c.effect->score)) continue;
     largest = std::isfinite(largest) ? largest : 0.0;
-    for (const FitEffectTest& t : c.effect->tests) {
-      double floor = std::numeric_limits<double>::infinity();
-      if (const auto e = effects.find(t.test); e != effects.end() && e->second > 0) floor = e->second;
-      if (const auto r = repeats.find(t.test); r != repeats.end() && r->second > 0) floor = std::min(floor, r->second);
-      if (std::isfinite(floor) && t.error_without / floor > largest) largest = t.error_without / floor, *where = t.test;
-    }
+    for (const FitEffectTest& t : c.effect->tests)
+      keep_larger_ratio(t.test, t.error_without, std::min(floor_of(effects, t.test), floor_of(repeats, t.test)), &largest,
+                        where);
   }
   return largest;
 }
@@ -1031,8 +1039,7 @@ double largest_loading_misfit(const DiscoverResult& result, std::string* where) 
   if (floors.empty() || result.baseline.fit.empty()) return std::numeric_limits<double>::quiet_NaN();
   double largest = 0;
   for (const FitEffectTest& t : fit_runs_error(result.baseline).tests)
-    if (const auto f = floors.find(t.test); f != floors.end() && f->second > 0 && t.error_with / f->second > largest)
-      largest = t.error_with / f->second, *where = t.test;
+    keep_larger_ratio(t.test, t.error_with, floor_of(floors, t.test), &largest, where);
   return largest;
 }
 
@@ -1390,6 +1397,8 @@ void held_out_folds(DiscoverWork& work, const std::string& effect, const std::ve
 
 }  // namespace
 
+namespace {
+
 // The joint refit of two or more named effects (refit_jointly): their names and, for two, the
 // refit in the other order.
 struct JointRefit {
@@ -1471,6 +1480,8 @@ void refit_named(DiscoverWork& work, const DiscoverOptions& options, const std::
     result->refit = reports.at(passing.front());
   }
 }
+
+}  // namespace
 
 DiscoverResult run_discover(const Dataset& dataset, const Options& config, const Registry& registry,
                             const FitProgress& progress) {
