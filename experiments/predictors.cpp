@@ -98,7 +98,7 @@ bool TensilePredictor::predict(const MaterialParameters& k, const std::vector<in
   const bool anchored = warm_start_ && anchor_q_.size() == extensions_mm_.size() &&
                         anchor_k_.size() == k_flat.size();
   Eigen::VectorXd dk;
-  // Entries outside the anchor's columns moved (none in a fit: the free set is fixed per stage).
+  // Law entries outside the anchor's columns moved (none in a fit: the free set is fixed per stage).
   // Then Δk over the columns is no path the anchor's ∂q/∂k knows: after the bend stage's
   // thickness rescaling τ and every membrane stiffness change together (G12 by 29 % on
   // canvas) while the planar strip's membrane τ·k does not, so q + ∂q/∂G12 ΔG12 is far off and
@@ -106,7 +106,16 @@ bool TensilePredictor::predict(const MaterialParameters& k, const std::vector<in
   // continuation (13.6 s instead of a warm re-evaluation). The guess is then the anchor's state
   // itself and the branch test is skipped: a changed strip still converges from it, only
   // slower.
-  const bool outside_moved = anchored && moved_outside_columns(k_flat);
+  // The effects' block (the flat vector's last entries) is not the law's: a strip-path effect
+  // (hysteresis, rate-dependence) adds to the observables outside this strip, a law effect
+  // reaches the strip through the law entries it adjusts (effects/effect_experiment.cpp). Its
+  // entries moving is no reason to skip the first-order guess and the branch test: counted as
+  // moved, every trial of an effect fit with its curves was warm-started from the anchor's bare
+  // state and never checked, and a rate fit's joint phase (20 % scatter, seed 2, 4x6) had a
+  // bias strip at 9 mm on another branch (22.4 N against 12.7 N from the flat strip), stalled
+  // at its first step and reported 6.59 % → 21.09 % where the same point solved from the flat
+  // strip fits to 0.6–1.4 % (docs/discovery.md §4).
+  const bool outside_moved = anchored && moved_outside_columns(k_flat, FlatLayout(k).effects);
   if (anchored && !outside_moved) {
     // First-order predictor q_i + ∂q_i/∂k Δk over the anchor's columns.
     dk.resize(static_cast<Eigen::Index>(anchor_flat_.size()));
@@ -154,8 +163,8 @@ bool TensilePredictor::predict(const MaterialParameters& k, const std::vector<in
   return true;
 }
 
-bool TensilePredictor::moved_outside_columns(const Eigen::VectorXd& k_flat) const {
-  for (Eigen::Index i = 0; i < k_flat.size(); ++i)
+bool TensilePredictor::moved_outside_columns(const Eigen::VectorXd& k_flat, int law_size) const {
+  for (Eigen::Index i = 0; i < std::min<Eigen::Index>(law_size, k_flat.size()); ++i)
     if (k_flat[i] != anchor_k_[i] && std::find(anchor_flat_.begin(), anchor_flat_.end(), i) == anchor_flat_.end())
       return true;
   return false;

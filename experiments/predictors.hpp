@@ -97,8 +97,9 @@ class TensilePredictor : public Experiment {
   std::vector<Eigen::MatrixXd> anchor_dq_;
   Eigen::VectorXd anchor_values_;    ///< the observables at the anchor
   Eigen::MatrixXd anchor_jacobian_;  ///< and their derivatives in its columns
-  /// Whether k differs from the anchor's parameters in an entry outside its columns.
-  bool moved_outside_columns(const Eigen::VectorXd& k_flat) const;
+  /// Whether k differs from the anchor's parameters in a law entry (the first `law_size`)
+  /// outside its columns.
+  bool moved_outside_columns(const Eigen::VectorXd& k_flat, int law_size) const;
   /// Whether a completed warm run left the anchor's first-order prediction (predictors.cpp).
   bool left_the_anchors_branch(const TensileCurve& warm, bool force, const Eigen::VectorXd& dk) const;
 };

@@ -12,6 +12,7 @@
 #include <tbb/global_control.h>
 
 #include "core/params_io.hpp"
+#include "core/registry.hpp"
 #include "discretizations/catmull_clark_kl/catmull_clark_kl.hpp"
 #include "experiments/predictors.hpp"
 #include "experiments/tensile_strip.hpp"
@@ -176,6 +177,37 @@ TEST(TensileWarmStart, AWarmRunOffTheAnchorsPredictionIsSolvedAgainFromTheFlatSt
   TensilePredictor fresh = predictor();
   ASSERT_TRUE(fresh.predict(far, flat, &cold, &j, &message)) << message;
   for (Eigen::Index i = 0; i < cold.size(); ++i) EXPECT_EQ(values[i], cold[i]) << i;
+}
+
+// The effects' block of k's flat vector is not the law's: an effect fit moves its entries at
+// every trial (a strip-path effect adds to the observables outside the strip; the strip sees
+// only law entries). Counted as moved outside the anchor's columns, they skipped the
+// first-order guess and the branch test, and a rate fit's joint phase ran on a bias strip
+// left on another branch (docs/discovery.md §4). With them moving too, a warm run off the
+// anchor's prediction is still solved again from the flat strip, and a near step is not.
+TEST(TensileWarmStart, TheEffectsEntriesMovingDoNotSkipTheBranchTest) {
+  const WarmStartCase c;
+  const auto with_rate = [](MaterialParameters k, double viscous_ratio) {
+    ComponentChoice rate{registry_category::kEffect, "rate-dependence", {}};
+    rate.options.set("viscous_ratio", viscous_ratio);
+    rate.options.set("relaxation_s", 10.0);
+    k.effects = {rate};
+    return k;
+  };
+  const MaterialParameters anchor = with_rate(c.anchor, 0.0);
+  const std::vector<int> flat = {anchor.index_of("G12_Pa"), anchor.index_of("eta4.alpha[0]")};
+  const Eigen::VectorXd measured = Eigen::VectorXd::Ones(static_cast<Eigen::Index>(c.extensions_mm.size()));
+  TensilePredictor warm("bias", c.setup, c.factory, anchor, c.extensions_mm, measured, tight_solver());
+  MaterialParameters near = with_rate(c.moved, 0.1), far = with_rate(c.anchor, 0.2);
+  far.eta4.alpha[0] *= 4;  // as in the test above: far from linear in it
+  Eigen::VectorXd values;
+  Eigen::MatrixXd jacobian;
+  std::string message;
+  ASSERT_TRUE(warm.predict(anchor, flat, &values, &jacobian, &message)) << message;
+  ASSERT_TRUE(warm.predict(near, flat, &values, &jacobian, &message)) << message;
+  EXPECT_EQ(warm.branch_retries(), 0);
+  ASSERT_TRUE(warm.predict(far, flat, &values, &jacobian, &message)) << message;
+  EXPECT_EQ(warm.branch_retries(), 1);
 }
 
 }  // namespace
