@@ -50,8 +50,12 @@ constexpr double kRicherCurveMinImprovement = 0.1;
 // Keyed by the pair in registration-independent (alphabetical) order.
 const std::map<std::pair<std::string, std::string>, std::string>& separating_data() {
   static const std::map<std::pair<std::string, std::string>, std::string> table = {
+      // Two speeds can leave them tied too (two specimens per speed at 20 % scatter, before the
+      // pairwise rule weighed the alone fits: papers/discovery, session 31), so the text says
+      // what more of the same data would do.
       {{"hysteresis", "rate-dependence"}, "runs of one test at two or more crosshead speeds (a rate loop narrows "
-                                          "at the slower speed, a friction loop does not)"},
+                                          "at the slower speed, a friction loop does not); where there are, more "
+                                          "specimens per speed or speeds further apart"},
       {{"misalignment", "specimen scale"}, "lateral strain or a shear-angle measurement of each strip"},
       {{"curve-degree", "hysteresis"}, "unloading rows (an elastic curve unloads along its loading path)"},
       {{"curve-degree", "rate-dependence"}, "runs of one test at two or more crosshead speeds"},
