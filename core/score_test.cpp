@@ -240,6 +240,10 @@ void add_faces(const std::vector<int>& sides, double reference, ScoreBasis* basi
       }
       columns.push_back(j);
     }
+    // Every column held: the face's part is zero, part_within_range's default. Its SVD would be
+    // of an empty matrix, which Eigen does not support (a segfault in a Release build: a
+    // discover's reversed refit of the 75 mm five-specimen dataset, session 31).
+    if (columns.empty()) continue;
     const Eigen::MatrixXd s = basis->signature(Eigen::all, columns);
     const Eigen::JacobiSVD<Eigen::MatrixXd> svd(s, Eigen::ComputeThinU | Eigen::ComputeThinV);
     std::vector<Eigen::Index> kept;

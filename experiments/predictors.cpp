@@ -114,7 +114,7 @@ bool TensilePredictor::predict(const MaterialParameters& k, const std::vector<in
   // state and never checked, and a rate fit's joint phase (20 % scatter, seed 2, 4x6) had a
   // bias strip at 9 mm on another branch (22.4 N against 12.7 N from the flat strip), stalled
   // at its first step and reported 6.59 % → 21.09 % where the same point solved from the flat
-  // strip fits to 0.6–1.4 % (docs/discovery.md §4).
+  // strip fits to 0.6–1.4 % (docs/fitting.md §5, "Entries outside the anchor's columns").
   const bool outside_moved = anchored && moved_outside_columns(k_flat, FlatLayout(k).effects);
   if (anchored && !outside_moved) {
     // First-order predictor q_i + ∂q_i/∂k Δk over the anchor's columns.

@@ -405,6 +405,16 @@ TEST(ScoreTest, ACandidateOnItsBoundIsTestedOneSided) {
   EXPECT_LE(rejected, 26);  // Binomial(300, 0.05) + 3 sd
   EXPECT_GE(rejected, 5);   // and not empty: the statistic is not always 0
   EXPECT_THROW(score_test(noise, baseline, candidate, run_rows, calibration, {1}), std::invalid_argument);
+  // Every column on its bound: the face with every column held is the zero part (its SVD would
+  // be of an empty matrix: a segfault in a Release build before session 31). Against both
+  // columns' ranges only the noise's share is explained; a feasible residual gives the
+  // two-sided T.
+  const std::vector<int> both_bounded = {1, 1};
+  const Eigen::VectorXd against_both = noise + candidate.col(0) + 0.5 * candidate.col(1);
+  EXPECT_LT(score_test(against_both, baseline, candidate, run_rows, calibration, both_bounded).statistic,
+            0.01 * score_test(against_both, baseline, candidate, run_rows, calibration).statistic);
+  EXPECT_NEAR(score_test(feasible, baseline, candidate, run_rows, calibration, both_bounded).statistic, two.statistic,
+              1e-9 * two.statistic);
 }
 
 // The candidate's directions beyond the baseline are counted from the signature's singular
