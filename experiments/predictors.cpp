@@ -106,15 +106,10 @@ bool TensilePredictor::predict(const MaterialParameters& k, const std::vector<in
   // continuation (13.6 s instead of a warm re-evaluation). The guess is then the anchor's state
   // itself and the branch test is skipped: a changed strip still converges from it, only
   // slower.
-  // The effects' block (the flat vector's last entries) is not the law's: a strip-path effect
-  // (hysteresis, rate-dependence) adds to the observables outside this strip, a law effect
-  // reaches the strip through the law entries it adjusts (effects/effect_experiment.cpp). Its
-  // entries moving is no reason to skip the first-order guess and the branch test: counted as
-  // moved, every trial of an effect fit with its curves was warm-started from the anchor's bare
-  // state and never checked, and a rate fit's joint phase (20 % scatter, seed 2, 4x6) had a
-  // bias strip at 9 mm on another branch (22.4 N against 12.7 N from the flat strip), stalled
-  // at its first step and reported 6.59 % → 21.09 % where the same point solved from the flat
-  // strip fits to 0.6–1.4 % (docs/fitting.md §5, "Entries outside the anchor's columns").
+  // Only the law's entries count: the effects' block (the flat vector's last entries) never
+  // reaches this strip (effects/effect_experiment.cpp), and an effect fit moves it at every
+  // trial — counted, every such trial skipped the guess and the branch test (a rate fit ran on a
+  // bias strip's other branch: docs/fitting.md §5, "Entries outside the anchor's columns").
   const bool outside_moved = anchored && moved_outside_columns(k_flat, FlatLayout(k).effects);
   if (anchored && !outside_moved) {
     // First-order predictor q_i + ∂q_i/∂k Δk over the anchor's columns.

@@ -183,7 +183,7 @@ TEST(TensileWarmStart, AWarmRunOffTheAnchorsPredictionIsSolvedAgainFromTheFlatSt
 // every trial (a strip-path effect adds to the observables outside the strip; the strip sees
 // only law entries). Counted as moved outside the anchor's columns, they skipped the
 // first-order guess and the branch test, and a rate fit's joint phase ran on a bias strip
-// left on another branch (docs/discovery.md §4). With them moving too, a warm run off the
+// left on another branch (docs/fitting.md §5). With them moving too, a warm run off the
 // anchor's prediction is still solved again from the flat strip, and a near step is not.
 TEST(TensileWarmStart, TheEffectsEntriesMovingDoNotSkipTheBranchTest) {
   const WarmStartCase c;
