@@ -8,6 +8,12 @@ candidate the hidden dataset can test is testable on the twin too), each given t
 
     rates.py TWILL OUTDIR [--effects SPEC ...] [--seeds 1 2 3 4 5] [--scatter 0.10 0.20]
              [--speeds MM_MIN ...] [--repeats N] [--set KEY=VALUE ...] [--no-twins] [--table-only]
+    rates.py TWILL OUTDIR --groups papers/discovery/table.yaml [--table-only]
+
+--groups runs each group of a groups file (the whole table of papers/discovery/README.md is
+table.yaml: the one-speed effects and the loop effects at two speeds, at both scatter levels)
+into OUTDIR/<group name> with the group's own settings, and writes the combined table to
+OUTDIR/rates.md and rates.json.
 
 --effects names specs of papers/hidden_effects: an effect (its spec), EFFECT-VARIANT (e.g.
 misalignment-validation: validation strips beside the fit tests), or a mechanism outside the
@@ -141,65 +147,155 @@ def write_tables(out, rows):
         f.write("\n".join(lines) + "\n")
 
 
+def check_effects(effects, library, where):
+    """The specs `effects` name, or a message saying which do not (an effect or a spec file)."""
+    unknown = [e for e in effects if not effect_of(e, library + OUTSIDE_THE_LIBRARY)]
+    if unknown:
+        return (f"{where}: {', '.join(unknown)} names no registered effect ({', '.join(library)}) "
+                f"nor one outside the library ({', '.join(OUTSIDE_THE_LIBRARY)})")
+    missing = [spec_path(e) for e in effects if not os.path.exists(spec_path(e))]
+    return f"{where}: no spec {', '.join(missing)}" if missing else None
+
+
+def run_group(twill, out, group, library, table_only):
+    """One group's datasets (generated, then discovered, unless their discover.json exists); its
+    rows, and OUT/rates.json and rates.md rewritten after every run. `group`: the keys of GROUP_KEYS."""
+    os.makedirs(out, exist_ok=True)
+    rows = []
+    for scatter in group["scatter"]:
+        for seed in group["seeds"]:
+            for spec_name in group["effects"]:
+                effect = effect_of(spec_name, library + OUTSIDE_THE_LIBRARY)
+                for hidden in (True, False) if group["twins"] else (True,):
+                    row = run_dataset(twill, out, group, spec_name, effect, scatter, seed, hidden, table_only)
+                    if row:
+                        rows.append(row)
+                        write_tables(out, rows)
+    write_tables(out, rows)
+    return rows
+
+
+def run_dataset(twill, out, group, spec_name, effect, scatter, seed, hidden, table_only):
+    """One dataset's row (None when it has not run and `table_only`, or when it failed)."""
+    tag = f"{spec_name}-s{scatter:g}-{seed}-{'hidden' if hidden else 'twin'}"
+    data, result = os.path.join(out, tag), os.path.join(out, tag + "-discover")
+    done = os.path.join(result, "discover.json")
+    seconds = 0.0
+    if not os.path.exists(done):
+        if table_only:
+            return None
+        spec = os.path.join(out, tag + ".spec.yaml")
+        spec_for(spec_name, scatter, hidden, spec, group["speeds"], group["repeats"])
+        if not run([sys.executable, os.path.join(SPECS, "synthesize.py"), spec, "-o", data, "--twill", twill,
+                    "--seed", str(seed)], data + ".log"):
+            print(f"{tag}: generator failed, see {data}.log", flush=True)
+            return None
+        cmd = [twill, "discover", data, "-o", result, "--quiet", "--no-plots", "--force"]
+        for o in group["overrides"]:
+            cmd += ["--set", o]
+        t = time.time()
+        if not run(cmd, result + ".log"):
+            print(f"{tag}: discover failed, see {result}.log", flush=True)
+            return None
+        seconds = time.time() - t
+    with open(done) as f:
+        r = json.load(f)
+    row = row_of(spec_name, effect, scatter, seed, hidden, r, seconds or r.get("time_s", 0.0))
+    print(f"{tag}: {row['verdict']} named {row['named']} ({row['seconds']:.0f} s)", flush=True)
+    return row
+
+
+# A group's keys and their defaults (the command line's, and a groups file's entries').
+GROUP_KEYS = {"effects": None, "seeds": [1, 2, 3, 4, 5], "scatter": [0.10, 0.20], "speeds": None, "repeats": None,
+              "overrides": DEFAULT_SET, "twins": True}
+
+
+def read_groups(path, library):
+    """The groups of a groups file (papers/discovery/table.yaml): a list of {name, and GROUP_KEYS}."""
+    with open(path) as f:
+        entries = yaml.safe_load(f)
+    if not isinstance(entries, list) or not entries:
+        raise SystemExit(f"{path}: expected a list of groups")
+    groups = []
+    for i, entry in enumerate(entries):
+        where = f"{path}: group {i + 1}"
+        if not isinstance(entry, dict) or "name" not in entry:
+            raise SystemExit(f"{where}: expected a mapping with a name")
+        unknown = sorted(set(entry) - set(GROUP_KEYS) - {"name", "data"})
+        if unknown:
+            raise SystemExit(f"{where} ({entry['name']}): unknown key {', '.join(unknown)} "
+                             f"(known: name, data, {', '.join(GROUP_KEYS)})")
+        group = dict(GROUP_KEYS)
+        group.update(entry)
+        group["effects"] = group["effects"] or library
+        message = check_effects(group["effects"], library, f"{where} ({entry['name']}) effects")
+        if message:
+            raise SystemExit(message)
+        groups.append(group)
+    return groups
+
+
+def write_combined(out, groups_rows):
+    """OUT/rates.md: each group's counts under its name and data, then every group's rows."""
+    lines = ["# The rates of `twill discover` over its groups (papers/discovery/rates.py --groups)", ""]
+    for group, rows in groups_rows:
+        lines += [f"## {group['name']}", "", group.get("data", ""), "",
+                  f"`rates.py TWILL OUT/{group['name']}` with {describe(group)}", ""]
+        with open(os.path.join(out, group["name"], "rates.md")) as f:
+            lines.append(f.read())
+    with open(os.path.join(out, "rates.md"), "w") as f:
+        f.write("\n".join(lines))
+    with open(os.path.join(out, "rates.json"), "w") as f:
+        json.dump({g["name"]: rows for g, rows in groups_rows}, f, indent=1)
+
+
+def describe(group):
+    """A group's settings as rates.py's options."""
+    parts = [f"--effects {' '.join(group['effects'])}", f"--seeds {' '.join(map(str, group['seeds']))}",
+             f"--scatter {' '.join(f'{s:g}' for s in group['scatter'])}"]
+    if group["speeds"]:
+        parts.append(f"--speeds {' '.join(f'{v:g}' for v in group['speeds'])}")
+    if group["repeats"]:
+        parts.append(f"--repeats {group['repeats']}")
+    parts.append(f"--set {' '.join(group['overrides'])}")
+    if not group["twins"]:
+        parts.append("--no-twins")
+    return "`" + " ".join(parts) + "`"
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("twill")
     parser.add_argument("out")
+    parser.add_argument("--groups", help="a groups file (papers/discovery/table.yaml): each group run into "
+                        "OUT/<its name> with its own settings, the combined table in OUT/rates.md; the options "
+                        "below are then not taken")
     parser.add_argument("--effects", nargs="+", help="the specs of papers/hidden_effects to hide (default: every "
                         "registered effect's); EFFECT or EFFECT-VARIANT (e.g. misalignment-validation: validation "
                         f"strips beside the fit tests); also {', '.join(OUTSIDE_THE_LIBRARY)} (outside the library)")
-    parser.add_argument("--seeds", nargs="+", type=int, default=[1, 2, 3, 4, 5])
-    parser.add_argument("--scatter", nargs="+", type=float, default=[0.10, 0.20])
+    parser.add_argument("--seeds", nargs="+", type=int, default=GROUP_KEYS["seeds"])
+    parser.add_argument("--scatter", nargs="+", type=float, default=GROUP_KEYS["scatter"])
     parser.add_argument("--speeds", nargs="+", type=float, help="every test at these speeds (mm/min)")
     parser.add_argument("--repeats", type=int, help="specimens per test and speed")
-    parser.add_argument("--set", nargs="*", default=DEFAULT_SET, dest="overrides")
+    parser.add_argument("--set", nargs="*", default=GROUP_KEYS["overrides"], dest="overrides")
     parser.add_argument("--no-twins", action="store_true", help="only the datasets with the effect hidden")
     parser.add_argument("--table-only", action="store_true", help="rewrite the tables from what has run")
     args = parser.parse_args()
     library = twill_cli.registered_names(args.twill, "effect")
-    args.effects = args.effects or library
-    unknown = [e for e in args.effects if not effect_of(e, library + OUTSIDE_THE_LIBRARY)]
-    if unknown:
-        parser.error(f"--effects: {', '.join(unknown)} names no registered effect ({', '.join(library)}) "
-                     f"nor one outside the library ({', '.join(OUTSIDE_THE_LIBRARY)})")
-    missing = [spec_path(e) for e in args.effects if not os.path.exists(spec_path(e))]
-    if missing:
-        parser.error(f"--effects: no spec {', '.join(missing)}")
-    os.makedirs(args.out, exist_ok=True)
-    rows = []
-    for scatter in args.scatter:
-        for seed in args.seeds:
-            for spec_name in args.effects:
-                effect = effect_of(spec_name, library + OUTSIDE_THE_LIBRARY)
-                for hidden in (True,) if args.no_twins else (True, False):
-                    tag = f"{spec_name}-s{scatter:g}-{seed}-{'hidden' if hidden else 'twin'}"
-                    data, result = os.path.join(args.out, tag), os.path.join(args.out, tag + "-discover")
-                    done = os.path.join(result, "discover.json")
-                    seconds = 0.0
-                    if not os.path.exists(done):
-                        if args.table_only:
-                            continue
-                        spec = os.path.join(args.out, tag + ".spec.yaml")
-                        spec_for(spec_name, scatter, hidden, spec, args.speeds, args.repeats)
-                        if not run([sys.executable, os.path.join(SPECS, "synthesize.py"), spec, "-o", data, "--twill",
-                                    args.twill, "--seed", str(seed)], data + ".log"):
-                            print(f"{tag}: generator failed, see {data}.log", flush=True)
-                            continue
-                        cmd = [args.twill, "discover", data, "-o", result, "--quiet", "--no-plots", "--force"]
-                        for o in args.overrides:
-                            cmd += ["--set", o]
-                        t = time.time()
-                        if not run(cmd, result + ".log"):
-                            print(f"{tag}: discover failed, see {result}.log", flush=True)
-                            continue
-                        seconds = time.time() - t
-                    with open(done) as f:
-                        r = json.load(f)
-                    row = row_of(spec_name, effect, scatter, seed, hidden, r, seconds or r.get("time_s", 0.0))
-                    rows.append(row)
-                    print(f"{tag}: {row['verdict']} named {row['named']} ({row['seconds']:.0f} s)", flush=True)
-                    write_tables(args.out, rows)
-    write_tables(args.out, rows)
+    if args.groups:
+        groups = read_groups(args.groups, library)
+        done = []
+        for group in groups:
+            done.append((group, run_group(args.twill, os.path.join(args.out, group["name"]), group, library,
+                                          args.table_only)))
+            write_combined(args.out, done)
+        return
+    group = {"effects": args.effects or library, "seeds": args.seeds, "scatter": args.scatter, "speeds": args.speeds,
+             "repeats": args.repeats, "overrides": args.overrides, "twins": not args.no_twins}
+    message = check_effects(group["effects"], library, "--effects")
+    if message:
+        parser.error(message)
+    run_group(args.twill, args.out, group, library, args.table_only)
 
 
 if __name__ == "__main__":
