@@ -288,8 +288,139 @@ std::string EquilibriumSolver::converged_with_previous_factor(EquilibriumSummary
                      gradient_norm, options_.gradient_tolerance, force, decrement);
 }
 
+namespace {
+
+// The last stall_window + 1 Newton iterates' Ψ and ‖g_f‖∞, for the stall and round-off-floor
+// tests of solve(); cleared after a fallback.
+class IterateWindow {
+ public:
+  explicit IterateWindow(size_t size) : size_(size) {
+    energy_.reserve(size + 1);
+    gradient_.reserve(size + 1);
+  }
+  void push(double psi, double gradient_norm) {
+    energy_.push_back(psi);
+    gradient_.push_back(gradient_norm);
+    if (energy_.size() > size_) {
+      energy_.erase(energy_.begin());
+      gradient_.erase(gradient_.begin());
+    }
+  }
+  void clear() {
+    energy_.clear();
+    gradient_.clear();
+  }
+  bool full() const { return energy_.size() == size_; }
+  double first_energy() const { return energy_.front(); }
+  double first_gradient() const { return gradient_.front(); }
+
+ private:
+  size_t size_;
+  std::vector<double> energy_, gradient_;
+};
+
+// The iterates' stall (the window's steps lowered Ψ by too little while ‖g_f‖∞ did not fall
+// enough): its reason, empty when there is none or the window is not full yet.
+std::string stall_reason(const EquilibriumOptions& options, const IterateWindow& window, double gradient_norm,
+                         double psi) {
+  if (!window.full()) return {};
+  const double decrease = window.first_energy() - psi;
+  if (decrease <= options.stall_energy_fraction * std::fabs(window.first_energy()) &&
+      gradient_norm > options.stall_gradient_fraction * window.first_gradient()) {
+    return fmt::format("stall: {} Newton steps lowered the energy by {:.3e} J", options.stall_window, decrease);
+  }
+  return {};
+}
+
+}  // namespace
+
+EquilibriumSummary EquilibriumSolver::finish(EquilibriumStatus status, std::string message, double psi,
+                                             EquilibriumSummary* s) {
+  s->status = status;
+  s->converged = status == EquilibriumStatus::kConverged;
+  s->energy_J = psi;
+  if (gradient_.size() == dofs_.num_dofs()) {
+    dofs_.gather_free(gradient_, &g_f_);
+    dofs_.gather_fixed(gradient_, &g_c_);
+    s->gradient_norm_N = max_abs(g_f_);
+    s->force_scale_N = force_scale();
+  }
+  s->message = std::move(message);
+  s->wall_time_s = seconds_since(solve_start_);
+  spdlog::debug(
+      "EquilibriumSolver: {} after {} Newton iterations, {} fallbacks ({} BE steps), "
+      "{} factorisations, {:.3f} s: {}",
+      to_string(status), s->newton_iterations, s->fallbacks, s->backward_euler_steps,
+      s->factorizations, s->wall_time_s, s->message);
+  return *s;
+}
+
+void EquilibriumSolver::prepare_free_masses() {
+  const Eigen::VectorXd mass = discretization_.lumped_mass();
+  if (mass.size() != dofs_.num_dofs()) {
+    throw std::invalid_argument(
+        fmt::format("EquilibriumSolver: lumped_mass() has {} entries, "
+                    "expected {}",
+                    mass.size(), dofs_.num_dofs()));
+  }
+  dofs_.gather_free(mass, &mass_f_);
+  // Backward Euler needs M_f > 0 on every free dof: a massless dof borrows the mean mass,
+  // and a massless model uses unit masses (h is then only a shift scale).
+  const double positive_sum = (mass_f_.array() > 0).select(mass_f_, 0.0).sum();
+  const auto positive_count = (mass_f_.array() > 0).count();
+  const double fill =
+      positive_count > 0 ? positive_sum / static_cast<double>(positive_count) : 1.0;
+  for (Eigen::Index i = 0; i < mass_f_.size(); ++i) {
+    if (!(mass_f_[i] > 0)) mass_f_[i] = fill;
+  }
+}
+
+EquilibriumSolver::NewtonIterate EquilibriumSolver::newton_direction(double psi, EquilibriumSummary* s) {
+  NewtonIterate it;
+  dofs_.gather_free(gradient_, &g_f_);
+  dofs_.gather_fixed(gradient_, &g_c_);
+  it.gradient_norm = max_abs(g_f_);
+  it.force = force_scale();
+  it.small_gradient = it.gradient_norm <= options_.gradient_tolerance * it.force;
+  dofs_.extract_free_free(hessian_, &k_ff_);
+  ++s->factorizations;
+  it.positive_definite = cholesky_.factorize(k_ff_);
+  if (!it.positive_definite) {
+    ++s->failed_factorizations;
+    return it;
+  }
+  cholesky_.solve(g_f_, &direction_);
+  direction_ = -direction_;
+  it.slope = g_f_.dot(direction_);
+  s->newton_decrement_J = -it.slope;
+  it.small_decrement = -it.slope <= options_.decrement_tolerance * it.force * length_scale_m_;
+  spdlog::debug(
+      "EquilibriumSolver: iteration {}: Ψ = {:.15e} J, |g_f| = {:.3e} N "
+      "(F = {:.3e} N), λ² = {:.3e} J",
+      s->newton_iterations, psi, it.gradient_norm, it.force, -it.slope);
+  return it;
+}
+
+EquilibriumSummary EquilibriumSolver::converged_at_floor(const Eigen::VectorXd& q, double* psi, const NewtonIterate& it,
+                                                         const std::string& evidence, EquilibriumSummary* s) {
+  // K_ff at q is factorised; make the Hessian (and K_fc) belong to q as well.
+  if (!hessian_at_q_) {
+    *psi = evaluate(q, &gradient_, &hessian_, s);
+    hessian_at_q_ = true;
+  }
+  dofs_.extract_free_fixed(hessian_, &k_fc_);
+  factor_at_solution_ = predictor_factor_ = true;
+  s->at_roundoff_floor = true;
+  return finish(EquilibriumStatus::kConverged,
+                fmt::format("converged at the round-off floor: |g_f|inf = {:.3e} N <= {:.1e} "
+                            "x {:.3e} N; lambda^2 = {:.3e} J > {:.1e} x F x L, but {}",
+                            it.gradient_norm, options_.gradient_tolerance, it.force, -it.slope,
+                            options_.decrement_tolerance, evidence),
+                *psi, s);
+}
+
 EquilibriumSummary EquilibriumSolver::solve(Eigen::VectorXd* q) {
-  const auto start = Clock::now();
+  solve_start_ = Clock::now();
   if (q == nullptr || q->size() != dofs_.num_dofs()) {
     throw std::invalid_argument(
         fmt::format("EquilibriumSolver::solve: q must have {} entries", dofs_.num_dofs()));
@@ -299,170 +430,82 @@ EquilibriumSummary EquilibriumSolver::solve(Eigen::VectorXd* q) {
   factor_at_solution_ = false;
   predictor_factor_ = false;
   hessian_at_q_ = false;
-  double psi = 0;
 
-  const auto finish = [&](EquilibriumStatus status, std::string message) {
-    s.status = status;
-    s.converged = status == EquilibriumStatus::kConverged;
-    s.energy_J = psi;
-    if (gradient_.size() == dofs_.num_dofs()) {
-      dofs_.gather_free(gradient_, &g_f_);
-      dofs_.gather_fixed(gradient_, &g_c_);
-      s.gradient_norm_N = max_abs(g_f_);
-      s.force_scale_N = force_scale();
-    }
-    s.message = std::move(message);
-    s.wall_time_s = seconds_since(start);
-    spdlog::debug(
-        "EquilibriumSolver: {} after {} Newton iterations, {} fallbacks ({} BE steps), "
-        "{} factorisations, {:.3f} s: {}",
-        to_string(status), s.newton_iterations, s.fallbacks, s.backward_euler_steps,
-        s.factorizations, s.wall_time_s, s.message);
-    return s;
-  };
-
-  psi = evaluate(*q, &gradient_, &hessian_, &s);
+  double psi = evaluate(*q, &gradient_, &hessian_, &s);
   s.initial_energy_J = psi;
   if (!std::isfinite(psi) || !gradient_.allFinite()) {
-    return finish(EquilibriumStatus::kNonFinite,
-                  "energy or gradient is not finite at the initial guess");
+    return finish(EquilibriumStatus::kNonFinite, "energy or gradient is not finite at the initial guess", psi, &s);
   }
   prepare_patterns();
   hessian_at_q_ = true;
-
-  const Eigen::VectorXd mass = discretization_.lumped_mass();
-  if (mass.size() != dofs_.num_dofs()) {
-    throw std::invalid_argument(
-        fmt::format("EquilibriumSolver: lumped_mass() has {} entries, "
-                    "expected {}",
-                    mass.size(), dofs_.num_dofs()));
-  }
-  dofs_.gather_free(mass, &mass_f_);
-  {
-    // Backward Euler needs M_f > 0 on every free dof: a massless dof borrows the mean mass,
-    // and a massless model uses unit masses (h is then only a shift scale).
-    const double positive_sum = (mass_f_.array() > 0).select(mass_f_, 0.0).sum();
-    const auto positive_count = (mass_f_.array() > 0).count();
-    const double fill =
-        positive_count > 0 ? positive_sum / static_cast<double>(positive_count) : 1.0;
-    for (Eigen::Index i = 0; i < mass_f_.size(); ++i) {
-      if (!(mass_f_[i] > 0)) mass_f_[i] = fill;
-    }
-  }
+  prepare_free_masses();
   double time_step = options_.initial_time_step_s;
-
-  const auto window_size = static_cast<size_t>(options_.stall_window) + 1;
-  std::vector<double> window_energy, window_gradient;
-  window_energy.reserve(window_size + 1);
-  window_gradient.reserve(window_size + 1);
+  IterateWindow window(static_cast<size_t>(options_.stall_window) + 1);
 
   for (;;) {
     if (!gradient_.allFinite() || !std::isfinite(psi)) {
-      return finish(EquilibriumStatus::kNonFinite, "energy or gradient became non-finite");
+      return finish(EquilibriumStatus::kNonFinite, "energy or gradient became non-finite", psi, &s);
     }
     if (!hessian_at_q_) {  // a full step taken without the Hessian (solution factor not needed)
       std::string converged = converged_with_previous_factor(&s);
-      if (!converged.empty()) return finish(EquilibriumStatus::kConverged, std::move(converged));
+      if (!converged.empty()) return finish(EquilibriumStatus::kConverged, std::move(converged), psi, &s);
       psi = evaluate(*q, &gradient_, &hessian_, &s);
       hessian_at_q_ = true;
     }
-    dofs_.gather_free(gradient_, &g_f_);
-    dofs_.gather_fixed(gradient_, &g_c_);
-    const double gradient_norm = max_abs(g_f_);
-    const double force = force_scale();
-    const bool small_gradient = gradient_norm <= options_.gradient_tolerance * force;
-    window_energy.push_back(psi);
-    window_gradient.push_back(gradient_norm);
-    if (window_energy.size() > window_size) {
-      window_energy.erase(window_energy.begin());
-      window_gradient.erase(window_gradient.begin());
+    const NewtonIterate it = newton_direction(psi, &s);
+    window.push(psi, it.gradient_norm);
+    if (it.positive_definite && it.small_gradient && it.small_decrement) {
+      dofs_.extract_free_fixed(hessian_, &k_fc_);
+      factor_at_solution_ = predictor_factor_ = true;
+      return finish(EquilibriumStatus::kConverged,
+                    fmt::format("converged: |g_f|inf = {:.3e} N <= {:.1e} x {:.3e} N, "
+                                "lambda^2 = {:.3e} J",
+                                it.gradient_norm, options_.gradient_tolerance, it.force, -it.slope),
+                    psi, &s);
     }
-
-    dofs_.extract_free_free(hessian_, &k_ff_);
-    ++s.factorizations;
-    const bool positive_definite = cholesky_.factorize(k_ff_);
-    double slope = 0;
-    std::string reason;
-    if (positive_definite) {
-      cholesky_.solve(g_f_, &direction_);
-      direction_ = -direction_;
-      slope = g_f_.dot(direction_);
-      s.newton_decrement_J = -slope;
-      const bool small_decrement = -slope <= options_.decrement_tolerance * force * length_scale_m_;
-      spdlog::debug(
-          "EquilibriumSolver: iteration {}: Ψ = {:.15e} J, |g_f| = {:.3e} N "
-          "(F = {:.3e} N), λ² = {:.3e} J",
-          s.newton_iterations, psi, gradient_norm, force, -slope);
-      if (small_gradient && small_decrement) {
-        dofs_.extract_free_fixed(hessian_, &k_fc_);
-        factor_at_solution_ = predictor_factor_ = true;
-        return finish(EquilibriumStatus::kConverged,
-                      fmt::format("converged: |g_f|inf = {:.3e} N <= {:.1e} x {:.3e} N, "
-                                  "lambda^2 = {:.3e} J",
-                                  gradient_norm, options_.gradient_tolerance, force, -slope));
-      }
-    } else {
-      ++s.failed_factorizations;
-      if (small_gradient) {
-        return finish(EquilibriumStatus::kIndefiniteStationary,
-                      fmt::format("stationary point (|g_f|inf = {:.3e} N) where K_ff is not "
-                                  "positive definite (column {}): not a minimum",
-                                  gradient_norm, cholesky_.failed_column()));
-      }
-      reason = fmt::format("K_ff not positive definite (column {})", cholesky_.failed_column());
+    if (!it.positive_definite && it.small_gradient) {
+      return finish(EquilibriumStatus::kIndefiniteStationary,
+                    fmt::format("stationary point (|g_f|inf = {:.3e} N) where K_ff is not "
+                                "positive definite (column {}): not a minimum",
+                                it.gradient_norm, cholesky_.failed_column()),
+                    psi, &s);
     }
+    std::string reason =
+        it.positive_definite ? "" : fmt::format("K_ff not positive definite (column {})", cholesky_.failed_column());
     if (s.newton_iterations >= options_.max_newton_iterations) {
       return finish(EquilibriumStatus::kMaxIterations,
                     fmt::format("{} Newton iterations without convergence (|g_f|inf = {:.3e} N, "
                                 "F = {:.3e} N)",
-                                s.newton_iterations, gradient_norm, force));
+                                s.newton_iterations, it.gradient_norm, it.force),
+                    psi, &s);
     }
-    if (reason.empty() && !(slope < 0 && std::isfinite(slope))) {
-      reason = fmt::format("ascent direction (g_f.d = {:.3e})", slope);
+    if (reason.empty() && !(it.slope < 0 && std::isfinite(it.slope))) {
+      reason = fmt::format("ascent direction (g_f.d = {:.3e})", it.slope);
     }
-    const auto converged_at_floor = [&](const std::string& evidence) {
-      // K_ff at q is factorised; make the Hessian (and K_fc) belong to q as well.
-      if (!hessian_at_q_) {
-        psi = evaluate(*q, &gradient_, &hessian_, &s);
-        hessian_at_q_ = true;
-      }
-      dofs_.extract_free_fixed(hessian_, &k_fc_);
-      factor_at_solution_ = predictor_factor_ = true;
-      s.at_roundoff_floor = true;
-      return finish(EquilibriumStatus::kConverged,
-                    fmt::format("converged at the round-off floor: |g_f|inf = {:.3e} N <= {:.1e} "
-                                "x {:.3e} N; lambda^2 = {:.3e} J > {:.1e} x F x L, but {}",
-                                gradient_norm, options_.gradient_tolerance, force, -slope,
-                                options_.decrement_tolerance, evidence));
-    };
-    if (reason.empty() && small_gradient && window_energy.size() == window_size &&
-        std::fabs(window_energy.front() - psi) <= options_.energy_roundoff * std::fabs(psi)) {
-      return converged_at_floor(fmt::format("{} Newton steps changed Psi by less than {:.1e} x "
-                                            "|Psi|",
-                                            options_.stall_window, options_.energy_roundoff));
+    if (reason.empty() && it.small_gradient && window.full() &&
+        std::fabs(window.first_energy() - psi) <= options_.energy_roundoff * std::fabs(psi)) {
+      return converged_at_floor(*q, &psi, it,
+                                fmt::format("{} Newton steps changed Psi by less than {:.1e} x |Psi|",
+                                            options_.stall_window, options_.energy_roundoff),
+                                &s);
     }
-    if (reason.empty() && window_energy.size() == window_size) {
-      const double decrease = window_energy.front() - psi;
-      if (decrease <= options_.stall_energy_fraction * std::fabs(window_energy.front()) &&
-          gradient_norm > options_.stall_gradient_fraction * window_gradient.front()) {
-        reason = fmt::format("stall: {} Newton steps lowered the energy by {:.3e} J",
-                             options_.stall_window, decrease);
-      }
-    }
+    if (reason.empty()) reason = stall_reason(options_, window, it.gradient_norm, psi);
     if (reason.empty()) {
       double alpha = 0;
       const SearchResult result =
-          line_search(q, &psi, slope, 0.0,
-                      small_gradient ? RoundoffRule::kByGradientOrFloor : RoundoffRule::kByGradient,
+          line_search(q, &psi, it.slope, 0.0,
+                      it.small_gradient ? RoundoffRule::kByGradientOrFloor : RoundoffRule::kByGradient,
                       solution_factor_needed_, &alpha, &s);
       if (result == SearchResult::kAccepted) {
         ++s.newton_iterations;
         continue;
       }
       if (result == SearchResult::kRoundoffFloor) {
-        return converged_at_floor(fmt::format("the Newton step changes neither Psi (by more "
-                                              "than {:.1e} x |Psi|) nor |g_f|",
-                                              options_.energy_roundoff));
+        return converged_at_floor(*q, &psi, it,
+                                  fmt::format("the Newton step changes neither Psi (by more than {:.1e} x |Psi|) "
+                                              "nor |g_f|",
+                                              options_.energy_roundoff),
+                                  &s);
       }
       reason = "line search found no decrease";
     }
@@ -470,16 +513,16 @@ EquilibriumSummary EquilibriumSolver::solve(Eigen::VectorXd* q) {
     if (s.fallbacks >= options_.max_fallbacks) {
       return finish(EquilibriumStatus::kFallbackLimit,
                     fmt::format("failsafe needed ({}) but max_fallbacks = {} reached", reason,
-                                options_.max_fallbacks));
+                                options_.max_fallbacks),
+                    psi, &s);
     }
     ++s.fallbacks;
     s.last_fallback_reason = reason;
     spdlog::debug("EquilibriumSolver: backward-Euler failsafe #{}: {}", s.fallbacks, reason);
     if (!backward_euler(q, &psi, &time_step, &s)) {
-      return finish(EquilibriumStatus::kFallbackFailed, reason + "; " + s.message);
+      return finish(EquilibriumStatus::kFallbackFailed, reason + "; " + s.message, psi, &s);
     }
-    window_energy.clear();
-    window_gradient.clear();
+    window.clear();
   }
 }
 

@@ -85,6 +85,7 @@
 // Discretization is only read through its const interface.
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
+#include <chrono>
 #include <functional>
 #include <string>
 #include <vector>
@@ -285,6 +286,23 @@ class EquilibriumSolver {
   bool backward_euler(Eigen::VectorXd* q, double* psi, double* time_step_s,
                       EquilibriumSummary* summary);
 
+  // The steps of solve().
+  // One Newton iterate's tests and direction: ‖g_f‖∞ against its tolerance, K_ff factorised,
+  // and where it is positive definite d = −K_ff⁻¹g_f (direction_), its slope g_fᵀd and λ² = −slope.
+  struct NewtonIterate {
+    double gradient_norm = 0, force = 0, slope = 0;
+    bool small_gradient = false, positive_definite = false, small_decrement = false;
+  };
+  NewtonIterate newton_direction(double psi, EquilibriumSummary* summary);
+  // M_f, the free dofs' lumped masses for backward Euler (a massless dof given the mean mass).
+  void prepare_free_masses();
+  // Converged at the round-off floor (header comment): the Hessian and K_fc made q's, `evidence`
+  // the message's reason.
+  EquilibriumSummary converged_at_floor(const Eigen::VectorXd& q, double* psi, const NewtonIterate& it,
+                                        const std::string& evidence, EquilibriumSummary* summary);
+  // `summary` completed with the status, message, Ψ, the final ‖g_f‖∞ and F, and the wall time.
+  EquilibriumSummary finish(EquilibriumStatus status, std::string message, double psi, EquilibriumSummary* summary);
+
   const Discretization& discretization_;
   EquilibriumOptions options_;
   ConstrainedDofs dofs_;
@@ -298,6 +316,7 @@ class EquilibriumSolver {
   bool predictor_factor_ = false;
   bool hessian_at_q_ = false;  // gradient_ and hessian_ belong to the current iterate
   bool solution_factor_needed_ = true;
+  std::chrono::steady_clock::time_point solve_start_;  ///< solve()'s start (its wall time)
 
   // Work buffers, sized once per pattern.
   SparseMatrix hessian_, k_ff_, k_fc_, k_shifted_;
