@@ -6,6 +6,9 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
+#include <string>
+#include <vector>
 
 namespace twill {
 namespace {
@@ -62,6 +65,124 @@ double damping_for_first_step(const Linearization& at, const std::vector<int>& f
   return std::min(lambda, options.max_lambda);
 }
 
+// Why a run stops inside a step.
+struct Stop {
+  OptimizerStatus status;
+  std::string message;
+};
+
+// The variables free this step: those at a bound that the gradient pushes outward stay fixed.
+std::vector<int> free_variables(const Linearization& at, const Eigen::VectorXd& lower, const Eigen::VectorXd& upper) {
+  const Eigen::VectorXd& x = at.x;
+  const Eigen::VectorXd& g = at.gradient;
+  std::vector<int> free;
+  for (Eigen::Index i = 0; i < x.size(); ++i)
+    if (!((x[i] <= lower[i] && g[i] > 0.0) || (x[i] >= upper[i] && g[i] < 0.0))) free.push_back(static_cast<int>(i));
+  return free;
+}
+
+// The model step over `free` (damped by `lambda`) with its blocked components dropped; where
+// rank deficiency or a bound spoilt it, projected steepest descent scaled to the minimiser of
+// ‖r + α J p‖², α = −gᵀp / (2 ‖J p‖²). *dphi0 = gᵀh.
+Eigen::VectorXd descent_step(const Linearization& at, const std::vector<int>& free, double lambda,
+                             const Eigen::VectorXd& lower, const Eigen::VectorXd& upper, double* dphi0) {
+  const Eigen::VectorXd& g = at.gradient;
+  Eigen::VectorXd h = model_step(at, free, lambda);
+  drop_blocked_components(at.x, lower, upper, h);
+  *dphi0 = g.dot(h);
+  if (!(*dphi0 < 0.0)) {
+    h = -g;
+    drop_blocked_components(at.x, lower, upper, h);
+    const double curvature = (at.J * h).squaredNorm();
+    if (curvature > 0.0) h *= -g.dot(h) / (2.0 * curvature);
+    *dphi0 = g.dot(h);
+  }
+  return h;
+}
+
+Stop no_descent(int k, double dphi0) {
+  return {OptimizerStatus::stalled, fmt::format("no descent direction at iteration {} (g'h = {:.3g})", k, dphi0)};
+}
+
+Stop evaluation_limit(const GaussNewtonOptions& options) {
+  return {OptimizerStatus::iteration_limit, fmt::format("max_evaluations = {} reached", options.max_evaluations)};
+}
+
+// Iteration k without damping: the Gauss–Newton step and a backtracking Armijo search from
+// α = 1 (N&W Alg. 3.1) into *trial, recorded; or why the run stops.
+std::optional<Stop> armijo_step(CountedProblem& problem, const Linearization& current, const std::vector<int>& free,
+                                int k, const GaussNewtonOptions& options, Linearization* trial) {
+  const Eigen::VectorXd& lower = problem.lower();
+  const Eigen::VectorXd& upper = problem.upper();
+  double dphi0 = 0;
+  const Eigen::VectorXd h = descent_step(current, free, 0.0, lower, upper, &dphi0);
+  if (!(dphi0 < 0.0)) return no_descent(k, dphi0);
+  const double alpha_max = max_feasible_step(current.x, h, lower, upper);
+  double alpha = std::min(1.0, alpha_max);
+  int evaluations = 0;
+  for (;;) {
+    if (problem.evaluations() >= options.max_evaluations) return evaluation_limit(options);
+    if (evaluations >= options.max_line_search_evaluations)
+      return Stop{OptimizerStatus::line_search_failed,
+                  fmt::format("no sufficient decrease within {} evaluations at iteration {} (last alpha {:.3g})",
+                              evaluations, k, alpha)};
+    *trial = linearize(problem, take_step(current.x, h, alpha, lower, upper));
+    ++evaluations;
+    if (std::isfinite(trial->value) && trial->value <= current.value + options.c1 * alpha * dphi0) break;
+    // Minimiser of the quadratic through φ(0), φ'(0), φ(α) (N&W eq. 3.58), kept in
+    // [0.1 α, 0.5 α] so the search neither stalls nor shrinks too fast.
+    double next = 0.5 * alpha;
+    const double curvature = trial->value - current.value - dphi0 * alpha;
+    if (std::isfinite(trial->value) && curvature > 0.0)
+      next = std::clamp(-dphi0 * alpha * alpha / (2.0 * curvature), 0.1 * alpha, 0.5 * alpha);
+    alpha = next;
+  }
+  LineSearchRecord record;
+  record.iteration = k;
+  record.alpha = alpha;
+  record.phi_0 = current.value;
+  record.dphi_0 = dphi0;
+  record.phi_alpha = trial->value;
+  record.dphi_alpha = trial->gradient.dot(h);
+  record.evaluations = evaluations;
+  record.step_limited = alpha == alpha_max && alpha < 1.0;
+  problem.record_line_search(record);
+  return std::nullopt;
+}
+
+// Iteration k with Levenberg–Marquardt damping (Nielsen's update of *lambda, *nu): steps
+// truncated at the box until one's gain ratio — the actual decrease over the predicted
+// m(0) − m(h) = −(gᵀh + ‖J h‖²) for m(h) = ‖r + J h‖² — is positive, into *trial; or why the
+// run stops.
+std::optional<Stop> levenberg_marquardt_step(CountedProblem& problem, const Linearization& current,
+                                             const std::vector<int>& free, int k, const GaussNewtonOptions& options,
+                                             double* lambda, double* nu, Linearization* trial) {
+  const Eigen::VectorXd& lower = problem.lower();
+  const Eigen::VectorXd& upper = problem.upper();
+  for (;;) {
+    double dphi0 = 0;
+    const Eigen::VectorXd h = descent_step(current, free, *lambda, lower, upper, &dphi0);
+    if (!(dphi0 < 0.0)) return no_descent(k, dphi0);
+    const double alpha = std::min(1.0, max_feasible_step(current.x, h, lower, upper));
+    const Eigen::VectorXd step = alpha * h;
+    const double predicted = -(current.gradient.dot(step) + (current.J * step).squaredNorm());
+    *trial = linearize(problem, take_step(current.x, h, alpha, lower, upper));
+    const double gain = (current.value - trial->value) / predicted;
+    if (std::isfinite(trial->value) && predicted > 0.0 && gain > 0.0) {
+      *lambda *= std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * gain - 1.0, 3));
+      *nu = 2.0;
+      return std::nullopt;
+    }
+    *lambda *= *nu;
+    *nu *= 2.0;
+    if (*lambda > options.max_lambda)
+      return Stop{OptimizerStatus::stalled,
+                  fmt::format("damping lambda = {:.3g} exceeded max_lambda = {:.3g} without a decrease at iteration {}",
+                              *lambda, options.max_lambda, k)};
+    if (problem.evaluations() >= options.max_evaluations) return evaluation_limit(options);
+  }
+}
+
 }  // namespace
 
 std::vector<OptionBinding<GaussNewtonOptions>> gauss_newton_option_bindings() {
@@ -115,7 +236,6 @@ Options GaussNewton::resolved_options() const {
 void GaussNewton::run(CountedProblem& problem, Eigen::VectorXd x0, OptimizerResult& result) const {
   const Eigen::VectorXd& lower = problem.lower();
   const Eigen::VectorXd& upper = problem.upper();
-  const Eigen::Index n = problem.dimension();
   const bool levenberg_marquardt = options_.damping == GaussNewtonDamping::levenberg_marquardt;
 
   Linearization current = linearize(problem, std::move(x0));
@@ -136,108 +256,18 @@ void GaussNewton::run(CountedProblem& problem, Eigen::VectorXd x0, OptimizerResu
     result.summary.final_value = current.value;
     result.summary.final_gradient_norm = gradient_norm;
   };
-  auto out_of_evaluations = [&] { return problem.evaluations() >= options_.max_evaluations; };
-  const std::string evaluation_limit =
-      fmt::format("max_evaluations = {} reached", options_.max_evaluations);
 
   double lambda = options_.initial_lambda, nu = 2.0;
   for (int k = 1;; ++k) {
     if (const auto stop = options_.iteration_stop(k, gradient_norm, problem.evaluations()))
       return finish(stop->status, stop->message);
-
-    const Eigen::VectorXd& x = current.x;
-    const Eigen::VectorXd& g = current.gradient;
-    // Variables at a bound that the gradient pushes outward stay fixed for this step.
-    std::vector<int> free;
-    for (Eigen::Index i = 0; i < n; ++i)
-      if (!((x[i] <= lower[i] && g[i] > 0.0) || (x[i] >= upper[i] && g[i] < 0.0)))
-        free.push_back(static_cast<int>(i));
-
+    const std::vector<int> free = free_variables(current, lower, upper);
     if (k == 1 && levenberg_marquardt) lambda = damping_for_first_step(current, free, lambda, options_);
-
     Linearization trial;
-    for (;;) {  // until a step is accepted (LM may reject several)
-      Eigen::VectorXd h = model_step(current, free, levenberg_marquardt ? lambda : 0.0);
-      drop_blocked_components(x, lower, upper, h);
-      double dphi0 = g.dot(h);
-      if (!(dphi0 < 0.0)) {
-        // Rank deficiency or a bound spoilt the model step: fall back to projected steepest
-        // descent, scaled to the minimiser of ‖r + α J p‖², α = −gᵀp / (2 ‖J p‖²).
-        h = -g;
-        drop_blocked_components(x, lower, upper, h);
-        const double curvature = (current.J * h).squaredNorm();
-        if (curvature > 0.0) h *= -g.dot(h) / (2.0 * curvature);
-        dphi0 = g.dot(h);
-      }
-      if (!(dphi0 < 0.0))
-        return finish(OptimizerStatus::stalled,
-                      fmt::format("no descent direction at iteration {} (g'h = {:.3g})", k, dphi0));
-      const double alpha_max = max_feasible_step(x, h, lower, upper);
-
-      if (!levenberg_marquardt) {
-        // Backtracking Armijo search from α = 1 (N&W Alg. 3.1).
-        double alpha = std::min(1.0, alpha_max);
-        int evaluations = 0;
-        bool accepted = false;
-        while (!accepted) {
-          if (out_of_evaluations())
-            return finish(OptimizerStatus::iteration_limit, evaluation_limit);
-          if (evaluations >= options_.max_line_search_evaluations)
-            return finish(
-                OptimizerStatus::line_search_failed,
-                fmt::format("no sufficient decrease within {} evaluations at iteration {} "
-                            "(last alpha {:.3g})",
-                            evaluations, k, alpha));
-          trial = linearize(problem, take_step(x, h, alpha, lower, upper));
-          ++evaluations;
-          if (std::isfinite(trial.value) &&
-              trial.value <= current.value + options_.c1 * alpha * dphi0) {
-            accepted = true;
-          } else {
-            // Minimiser of the quadratic through φ(0), φ'(0), φ(α) (N&W eq. 3.58), kept in
-            // [0.1 α, 0.5 α] so the search neither stalls nor shrinks too fast.
-            double next = 0.5 * alpha;
-            const double curvature = trial.value - current.value - dphi0 * alpha;
-            if (std::isfinite(trial.value) && curvature > 0.0)
-              next =
-                  std::clamp(-dphi0 * alpha * alpha / (2.0 * curvature), 0.1 * alpha, 0.5 * alpha);
-            alpha = next;
-          }
-        }
-        LineSearchRecord record;
-        record.iteration = k;
-        record.alpha = alpha;
-        record.phi_0 = current.value;
-        record.dphi_0 = dphi0;
-        record.phi_alpha = trial.value;
-        record.dphi_alpha = trial.gradient.dot(h);
-        record.evaluations = evaluations;
-        record.step_limited = alpha == alpha_max && alpha < 1.0;
-        problem.record_line_search(record);
-        break;
-      }
-
-      // Levenberg–Marquardt: the step truncated at the box, its predicted decrease
-      // m(0) − m(h) = −(gᵀh + ‖J h‖²) for m(h) = ‖r + J h‖², and the gain ratio.
-      const double alpha = std::min(1.0, alpha_max);
-      const Eigen::VectorXd step = alpha * h;
-      const double predicted = -(g.dot(step) + (current.J * step).squaredNorm());
-      trial = linearize(problem, take_step(x, h, alpha, lower, upper));
-      const double gain = (current.value - trial.value) / predicted;
-      if (std::isfinite(trial.value) && predicted > 0.0 && gain > 0.0) {
-        lambda *= std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * gain - 1.0, 3));
-        nu = 2.0;
-        break;
-      }
-      lambda *= nu;
-      nu *= 2.0;
-      if (lambda > options_.max_lambda)
-        return finish(OptimizerStatus::stalled,
-                      fmt::format("damping lambda = {:.3g} exceeded max_lambda = {:.3g} without a "
-                                  "decrease at iteration {}",
-                                  lambda, options_.max_lambda, k));
-      if (out_of_evaluations()) return finish(OptimizerStatus::iteration_limit, evaluation_limit);
-    }
+    const std::optional<Stop> stop =
+        levenberg_marquardt ? levenberg_marquardt_step(problem, current, free, k, options_, &lambda, &nu, &trial)
+                            : armijo_step(problem, current, free, k, options_, &trial);
+    if (stop) return finish(stop->status, stop->message);
 
     const double step_length = (trial.x - current.x).lpNorm<Eigen::Infinity>();
     const Eigen::VectorXd x_previous = current.x;
