@@ -126,7 +126,8 @@ def write_tables(out, rows):
     kinds = ["named", "named+false", "false", "tied", "untestable", "unexplained", "failed", "none"]
     groups = {}
     for r in rows:
-        groups.setdefault((r.get("spec", r["effect"]), r["scatter"], r["hidden"]), []).append(classify(r))
+        if not r.get("same_data_as"):  # counted once, under the twin that ran
+            groups.setdefault((r.get("spec", r["effect"]), r["scatter"], r["hidden"]), []).append(classify(r))
     lines = ["| spec (hidden effect) | data | scatter | datasets | " + " | ".join(kinds) + " |",
              "|---|---|---|---|" + "---|" * len(kinds)]
     for (effect, scatter, hidden), got in sorted(groups.items()):
@@ -140,7 +141,8 @@ def write_tables(out, rows):
         held = c.get("held_out") or {}
         p = c.get("p_value")
         lines.append(f"| {r.get('spec', r['effect'])} | {'hidden' if r['hidden'] else 'twin'} | {r['scatter']:g} | {r['seed']} | "
-                     f"{r['verdict']} | {', '.join(r['named']) or '—'} | "
+                     f"{r['verdict']}{' (the same data as ' + r['same_data_as'] + ')' if r.get('same_data_as') else ''} | "
+                     f"{', '.join(r['named']) or '—'} | "
                      f"{pct(c.get('error_without'))} → {pct(c.get('error_with'))} ({'—' if p is None else f'{p:.2g}'}) | "
                      f"{pct(held.get('error_without'))} → {pct(held.get('error_with'))} | {r['seconds']:.0f} s |")
     with open(os.path.join(out, "rates.md"), "w") as f:
@@ -162,12 +164,13 @@ def run_group(twill, out, group, library, table_only):
     rows, and OUT/rates.json and rates.md rewritten after every run. `group`: the keys of GROUP_KEYS."""
     os.makedirs(out, exist_ok=True)
     rows = []
+    twins = {}  # a twin's data (twin_key) -> (its tag, its discover.json): two specs' twins can be the same data
     for scatter in group["scatter"]:
         for seed in group["seeds"]:
             for spec_name in group["effects"]:
                 effect = effect_of(spec_name, library + OUTSIDE_THE_LIBRARY)
                 for hidden in (True, False) if group["twins"] else (True,):
-                    row = run_dataset(twill, out, group, spec_name, effect, scatter, seed, hidden, table_only)
+                    row = run_dataset(twill, out, group, spec_name, effect, scatter, seed, hidden, table_only, twins)
                     if row:
                         rows.append(row)
                         write_tables(out, rows)
@@ -175,16 +178,40 @@ def run_group(twill, out, group, library, table_only):
     return rows
 
 
-def run_dataset(twill, out, group, spec_name, effect, scatter, seed, hidden, table_only):
-    """One dataset's row (None when it has not run and `table_only`, or when it failed)."""
+def twin_key(spec_path, seed):
+    """What a twin's data depend on: its spec without the name, and the seed. The loop effects'
+    specs at the same speeds and repeats differ only in their effect and name, so their twins are
+    the same specimens, offsets and noise (papers/discovery/README.md, session 32)."""
+    with open(spec_path) as f:
+        spec = yaml.safe_load(f)
+    spec.pop("name", None)
+    return json.dumps(spec, sort_keys=True) + f" seed {seed}"
+
+
+def run_dataset(twill, out, group, spec_name, effect, scatter, seed, hidden, table_only, twins):
+    """One dataset's row (None when it has not run and `table_only`, or when it failed). A twin
+    whose data an earlier twin of the group has (`twins`, by twin_key) is not run again: its row is
+    that twin's, marked `same_data_as`, and counted once."""
     tag = f"{spec_name}-s{scatter:g}-{seed}-{'hidden' if hidden else 'twin'}"
     data, result = os.path.join(out, tag), os.path.join(out, tag + "-discover")
     done = os.path.join(result, "discover.json")
+    spec = os.path.join(out, tag + ".spec.yaml")
+    key = None
+    if not hidden:
+        spec_for(spec_name, scatter, hidden, spec, group["speeds"], group["repeats"])
+        key = twin_key(spec, seed)
+        if key in twins:
+            earlier_tag, earlier_done = twins[key]
+            with open(done if os.path.exists(done) else earlier_done) as f:
+                r = json.load(f)
+            row = row_of(spec_name, effect, scatter, seed, hidden, r, 0.0)
+            row.update(tag=tag, same_data_as=earlier_tag)
+            print(f"{tag}: the same data as {earlier_tag}: {row['verdict']}", flush=True)
+            return row
     seconds = 0.0
     if not os.path.exists(done):
         if table_only:
             return None
-        spec = os.path.join(out, tag + ".spec.yaml")
         spec_for(spec_name, scatter, hidden, spec, group["speeds"], group["repeats"])
         if not run([sys.executable, os.path.join(SPECS, "synthesize.py"), spec, "-o", data, "--twill", twill,
                     "--seed", str(seed)], data + ".log"):
@@ -201,6 +228,9 @@ def run_dataset(twill, out, group, spec_name, effect, scatter, seed, hidden, tab
     with open(done) as f:
         r = json.load(f)
     row = row_of(spec_name, effect, scatter, seed, hidden, r, seconds or r.get("time_s", 0.0))
+    row["tag"] = tag
+    if key is not None:
+        twins[key] = (tag, done)
     print(f"{tag}: {row['verdict']} named {row['named']} ({row['seconds']:.0f} s)", flush=True)
     return row
 
