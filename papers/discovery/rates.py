@@ -43,6 +43,7 @@ floor must shrink threefold) and its held-out errors. Counted per (effect, scatt
 import argparse
 import json
 import os
+import re
 import subprocess
 import sys
 import time
@@ -93,6 +94,11 @@ def spec_for(spec_name, scatter, hidden, path, speeds=None, repeats=None):
         yaml.safe_dump(spec, f, sort_keys=False)
 
 
+# How discover's reason states the excess over the floors that must shrink threefold
+# (fitting/discovery_judge.cpp, judge_one), before → after, in points.
+EXCESS = re.compile(r"excess over each test's floor ([0-9.]+) → ([0-9.]+) points")
+
+
 def row_of(spec, effect, scatter, seed, hidden, result, seconds):
     candidates = {c["name"]: c for c in result["candidates"]}
     mine = candidates.get(effect, {})
@@ -102,6 +108,9 @@ def row_of(spec, effect, scatter, seed, hidden, result, seconds):
     if "error_without" in mine:
         row["candidate"] = {k: mine.get(k) for k in ("error_without", "error_with", "p_value", "held_out")}
         row["candidate"]["parameters"] = {p["name"]: p["value"] for p in mine.get("parameters", [])}
+        excess = EXCESS.search(mine.get("reason", ""))
+        if excess:  # the judge's test-by-test excess over the floors (docs/discovery.md §1), in points
+            row["candidate"]["excess"] = [float(excess.group(1)), float(excess.group(2))]
     row["gap"] = result["gap"]
     return row
 
@@ -134,7 +143,8 @@ def write_tables(out, rows):
         lines.append(f"| {effect} | {'hidden' if hidden else 'twin (none)'} | {scatter:g} | {len(got)} | " +
                      " | ".join(str(got.count(k)) for k in kinds) + " |")
     lines += ["", "| spec (hidden effect) | data | scatter | seed | verdict | named | its error without → with (p) | "
-              "held-out without → with | time |", "|---|---|---|---|---|---|---|---|---|"]
+              "its excess over the floors [points] | held-out without → with | time |",
+              "|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         c = r.get("candidate", {})
         pct = lambda v: f"{100 * v:.2f} %" if isinstance(v, (int, float)) else "—"
@@ -144,6 +154,7 @@ def write_tables(out, rows):
                      f"{r['verdict']}{' (the same data as ' + r['same_data_as'] + ')' if r.get('same_data_as') else ''} | "
                      f"{', '.join(r['named']) or '—'} | "
                      f"{pct(c.get('error_without'))} → {pct(c.get('error_with'))} ({'—' if p is None else f'{p:.2g}'}) | "
+                     f"{'{:.2f} → {:.2f}'.format(*c['excess']) if c.get('excess') else '—'} | "
                      f"{pct(held.get('error_without'))} → {pct(held.get('error_with'))} | {r['seconds']:.0f} s |")
     with open(os.path.join(out, "rates.md"), "w") as f:
         f.write("\n".join(lines) + "\n")
