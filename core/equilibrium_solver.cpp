@@ -335,7 +335,7 @@ std::string stall_reason(const EquilibriumOptions& options, const IterateWindow&
 }  // namespace
 
 EquilibriumSummary EquilibriumSolver::finish(EquilibriumStatus status, std::string message, double psi,
-                                             EquilibriumSummary* s) {
+                                             Clock::time_point start, EquilibriumSummary* s) {
   s->status = status;
   s->converged = status == EquilibriumStatus::kConverged;
   s->energy_J = psi;
@@ -346,7 +346,7 @@ EquilibriumSummary EquilibriumSolver::finish(EquilibriumStatus status, std::stri
     s->force_scale_N = force_scale();
   }
   s->message = std::move(message);
-  s->wall_time_s = seconds_since(solve_start_);
+  s->wall_time_s = seconds_since(start);
   spdlog::debug(
       "EquilibriumSolver: {} after {} Newton iterations, {} fallbacks ({} BE steps), "
       "{} factorisations, {:.3f} s: {}",
@@ -402,7 +402,8 @@ EquilibriumSolver::NewtonIterate EquilibriumSolver::newton_direction(double psi,
 }
 
 EquilibriumSummary EquilibriumSolver::converged_at_floor(const Eigen::VectorXd& q, double* psi, const NewtonIterate& it,
-                                                         const std::string& evidence, EquilibriumSummary* s) {
+                                                         const std::string& evidence, Clock::time_point start,
+                                                         EquilibriumSummary* s) {
   // K_ff at q is factorised; make the Hessian (and K_fc) belong to q as well.
   if (!hessian_at_q_) {
     *psi = evaluate(q, &gradient_, &hessian_, s);
@@ -416,11 +417,11 @@ EquilibriumSummary EquilibriumSolver::converged_at_floor(const Eigen::VectorXd& 
                             "x {:.3e} N; lambda^2 = {:.3e} J > {:.1e} x F x L, but {}",
                             it.gradient_norm, options_.gradient_tolerance, it.force, -it.slope,
                             options_.decrement_tolerance, evidence),
-                *psi, s);
+                *psi, start, s);
 }
 
 EquilibriumSummary EquilibriumSolver::solve(Eigen::VectorXd* q) {
-  solve_start_ = Clock::now();
+  const auto start = Clock::now();
   if (q == nullptr || q->size() != dofs_.num_dofs()) {
     throw std::invalid_argument(
         fmt::format("EquilibriumSolver::solve: q must have {} entries", dofs_.num_dofs()));
@@ -434,7 +435,7 @@ EquilibriumSummary EquilibriumSolver::solve(Eigen::VectorXd* q) {
   double psi = evaluate(*q, &gradient_, &hessian_, &s);
   s.initial_energy_J = psi;
   if (!std::isfinite(psi) || !gradient_.allFinite()) {
-    return finish(EquilibriumStatus::kNonFinite, "energy or gradient is not finite at the initial guess", psi, &s);
+    return finish(EquilibriumStatus::kNonFinite, "energy or gradient is not finite at the initial guess", psi, start, &s);
   }
   prepare_patterns();
   hessian_at_q_ = true;
@@ -444,11 +445,11 @@ EquilibriumSummary EquilibriumSolver::solve(Eigen::VectorXd* q) {
 
   for (;;) {
     if (!gradient_.allFinite() || !std::isfinite(psi)) {
-      return finish(EquilibriumStatus::kNonFinite, "energy or gradient became non-finite", psi, &s);
+      return finish(EquilibriumStatus::kNonFinite, "energy or gradient became non-finite", psi, start, &s);
     }
     if (!hessian_at_q_) {  // a full step taken without the Hessian (solution factor not needed)
       std::string converged = converged_with_previous_factor(&s);
-      if (!converged.empty()) return finish(EquilibriumStatus::kConverged, std::move(converged), psi, &s);
+      if (!converged.empty()) return finish(EquilibriumStatus::kConverged, std::move(converged), psi, start, &s);
       psi = evaluate(*q, &gradient_, &hessian_, &s);
       hessian_at_q_ = true;
     }
@@ -461,14 +462,14 @@ EquilibriumSummary EquilibriumSolver::solve(Eigen::VectorXd* q) {
                     fmt::format("converged: |g_f|inf = {:.3e} N <= {:.1e} x {:.3e} N, "
                                 "lambda^2 = {:.3e} J",
                                 it.gradient_norm, options_.gradient_tolerance, it.force, -it.slope),
-                    psi, &s);
+                    psi, start, &s);
     }
     if (!it.positive_definite && it.small_gradient) {
       return finish(EquilibriumStatus::kIndefiniteStationary,
                     fmt::format("stationary point (|g_f|inf = {:.3e} N) where K_ff is not "
                                 "positive definite (column {}): not a minimum",
                                 it.gradient_norm, cholesky_.failed_column()),
-                    psi, &s);
+                    psi, start, &s);
     }
     std::string reason =
         it.positive_definite ? "" : fmt::format("K_ff not positive definite (column {})", cholesky_.failed_column());
@@ -477,7 +478,7 @@ EquilibriumSummary EquilibriumSolver::solve(Eigen::VectorXd* q) {
                     fmt::format("{} Newton iterations without convergence (|g_f|inf = {:.3e} N, "
                                 "F = {:.3e} N)",
                                 s.newton_iterations, it.gradient_norm, it.force),
-                    psi, &s);
+                    psi, start, &s);
     }
     if (reason.empty() && !(it.slope < 0 && std::isfinite(it.slope))) {
       reason = fmt::format("ascent direction (g_f.d = {:.3e})", it.slope);
@@ -487,7 +488,7 @@ EquilibriumSummary EquilibriumSolver::solve(Eigen::VectorXd* q) {
       return converged_at_floor(*q, &psi, it,
                                 fmt::format("{} Newton steps changed Psi by less than {:.1e} x |Psi|",
                                             options_.stall_window, options_.energy_roundoff),
-                                &s);
+                                start, &s);
     }
     if (reason.empty()) reason = stall_reason(options_, window, it.gradient_norm, psi);
     if (reason.empty()) {
@@ -505,7 +506,7 @@ EquilibriumSummary EquilibriumSolver::solve(Eigen::VectorXd* q) {
                                   fmt::format("the Newton step changes neither Psi (by more than {:.1e} x |Psi|) "
                                               "nor |g_f|",
                                               options_.energy_roundoff),
-                                  &s);
+                                  start, &s);
       }
       reason = "line search found no decrease";
     }
@@ -514,13 +515,13 @@ EquilibriumSummary EquilibriumSolver::solve(Eigen::VectorXd* q) {
       return finish(EquilibriumStatus::kFallbackLimit,
                     fmt::format("failsafe needed ({}) but max_fallbacks = {} reached", reason,
                                 options_.max_fallbacks),
-                    psi, &s);
+                    psi, start, &s);
     }
     ++s.fallbacks;
     s.last_fallback_reason = reason;
     spdlog::debug("EquilibriumSolver: backward-Euler failsafe #{}: {}", s.fallbacks, reason);
     if (!backward_euler(q, &psi, &time_step, &s)) {
-      return finish(EquilibriumStatus::kFallbackFailed, reason + "; " + s.message, psi, &s);
+      return finish(EquilibriumStatus::kFallbackFailed, reason + "; " + s.message, psi, start, &s);
     }
     window.clear();
   }

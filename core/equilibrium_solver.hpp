@@ -299,9 +299,12 @@ class EquilibriumSolver {
   // Converged at the round-off floor (header comment): the Hessian and K_fc made q's, `evidence`
   // the message's reason.
   EquilibriumSummary converged_at_floor(const Eigen::VectorXd& q, double* psi, const NewtonIterate& it,
-                                        const std::string& evidence, EquilibriumSummary* summary);
-  // `summary` completed with the status, message, Ψ, the final ‖g_f‖∞ and F, and the wall time.
-  EquilibriumSummary finish(EquilibriumStatus status, std::string message, double psi, EquilibriumSummary* summary);
+                                        const std::string& evidence, std::chrono::steady_clock::time_point start,
+                                        EquilibriumSummary* summary);
+  // `summary` completed with the status, message, Ψ, the final ‖g_f‖∞ and F, and the wall time
+  // since `start`.
+  EquilibriumSummary finish(EquilibriumStatus status, std::string message, double psi,
+                            std::chrono::steady_clock::time_point start, EquilibriumSummary* summary);
 
   const Discretization& discretization_;
   EquilibriumOptions options_;
@@ -316,7 +319,6 @@ class EquilibriumSolver {
   bool predictor_factor_ = false;
   bool hessian_at_q_ = false;  // gradient_ and hessian_ belong to the current iterate
   bool solution_factor_needed_ = true;
-  std::chrono::steady_clock::time_point solve_start_;  ///< solve()'s start (its wall time)
 
   // Work buffers, sized once per pattern.
   SparseMatrix hessian_, k_ff_, k_fc_, k_shifted_;

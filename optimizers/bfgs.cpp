@@ -104,11 +104,8 @@ void Bfgs::run(CountedProblem& problem, Eigen::VectorXd x0, OptimizerResult& res
       return finish(stop->status, stop->message);
 
     // Variables at a bound that the gradient pushes outward are held for this step.
-    std::vector<int> free, held;
-    for (Eigen::Index i = 0; i < n; ++i) {
-      const bool blocked = (x[i] <= lower[i] && g[i] > 0.0) || (x[i] >= upper[i] && g[i] < 0.0);
-      (blocked ? held : free).push_back(static_cast<int>(i));
-    }
+    std::vector<int> held;
+    const std::vector<int> free = free_variables(x, g, lower, upper, &held);
     Eigen::VectorXd p = reduced_direction(H, g, free, held);
     drop_blocked_components(x, lower, upper, p);
     double dphi0 = g.dot(p);

@@ -71,16 +71,6 @@ struct Stop {
   std::string message;
 };
 
-// The variables free this step: those at a bound that the gradient pushes outward stay fixed.
-std::vector<int> free_variables(const Linearization& at, const Eigen::VectorXd& lower, const Eigen::VectorXd& upper) {
-  const Eigen::VectorXd& x = at.x;
-  const Eigen::VectorXd& g = at.gradient;
-  std::vector<int> free;
-  for (Eigen::Index i = 0; i < x.size(); ++i)
-    if (!((x[i] <= lower[i] && g[i] > 0.0) || (x[i] >= upper[i] && g[i] < 0.0))) free.push_back(static_cast<int>(i));
-  return free;
-}
-
 // The model step over `free` (damped by `lambda`) with its blocked components dropped; where
 // rank deficiency or a bound spoilt it, projected steepest descent scaled to the minimiser of
 // ‖r + α J p‖², α = −gᵀp / (2 ‖J p‖²). *dphi0 = gᵀh.
@@ -261,7 +251,7 @@ void GaussNewton::run(CountedProblem& problem, Eigen::VectorXd x0, OptimizerResu
   for (int k = 1;; ++k) {
     if (const auto stop = options_.iteration_stop(k, gradient_norm, problem.evaluations()))
       return finish(stop->status, stop->message);
-    const std::vector<int> free = free_variables(current, lower, upper);
+    const std::vector<int> free = free_variables(current.x, current.gradient, lower, upper);
     if (k == 1 && levenberg_marquardt) lambda = damping_for_first_step(current, free, lambda, options_);
     Linearization trial;
     const std::optional<Stop> stop =

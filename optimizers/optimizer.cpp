@@ -159,6 +159,20 @@ double projected_gradient_norm(const Eigen::VectorXd& x, const Eigen::VectorXd& 
   return norm;
 }
 
+std::vector<int> free_variables(const Eigen::VectorXd& x, const Eigen::VectorXd& gradient,
+                                const Eigen::VectorXd& lower, const Eigen::VectorXd& upper,
+                                std::vector<int>* held) {
+  std::vector<int> free;
+  for (Eigen::Index i = 0; i < x.size(); ++i) {
+    const bool blocked = (x[i] <= lower[i] && gradient[i] > 0.0) || (x[i] >= upper[i] && gradient[i] < 0.0);
+    if (!blocked)
+      free.push_back(static_cast<int>(i));
+    else if (held)
+      held->push_back(static_cast<int>(i));
+  }
+  return free;
+}
+
 void drop_blocked_components(const Eigen::VectorXd& x, const Eigen::VectorXd& lower,
                              const Eigen::VectorXd& upper, Eigen::VectorXd& p) {
   for (Eigen::Index i = 0; i < x.size(); ++i)

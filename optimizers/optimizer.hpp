@@ -160,6 +160,12 @@ class CountedProblem {
 double projected_gradient_norm(const Eigen::VectorXd& x, const Eigen::VectorXd& gradient,
                                const Eigen::VectorXd& lower, const Eigen::VectorXd& upper);
 
+/// The variables a step may move: all but those at a bound that the gradient pushes outward
+/// (x_i = lower_i and g_i > 0, or x_i = upper_i and g_i < 0), which go to `held` when given.
+std::vector<int> free_variables(const Eigen::VectorXd& x, const Eigen::VectorXd& gradient,
+                                const Eigen::VectorXd& lower, const Eigen::VectorXd& upper,
+                                std::vector<int>* held = nullptr);
+
 /// Zeroes the components of direction p that would leave the box at a bound x already
 /// touches (x_i = lower_i and p_i < 0, or x_i = upper_i and p_i > 0).
 void drop_blocked_components(const Eigen::VectorXd& x, const Eigen::VectorXd& lower,
