@@ -113,6 +113,9 @@ constexpr int kMaxSlabs = 16;
 constexpr int kParallelMinimum = 1024;
 // Chunk of an independent loop (energy-only elements, angles, faces).
 constexpr int kGrain = 64;
+// Point location widens each triangle's bounding box by this fraction of a cell, so that a
+// point on an edge shared by two triangles finds both.
+constexpr double kPointLocationSlack = 1e-9;
 
 
 void validate_strip(const StripSpec& s) {
@@ -229,6 +232,16 @@ struct TriangleShell::Impl {
 
   ParallelRunner runner;
 
+  // The constructor's build steps, in the order it runs them.
+  void build_reference_elements(double angle_deg);
+  void build_clamp_hinges(StripEnds ends, double length_m);
+  void build_bending_model(HingeModel model, double angle_deg);
+  void build_face_stencils();
+  void build_assembly();
+  void build_bending_schedule();
+  void build_schedule();
+  void build_point_location(double width_m);
+
   int num_faces() const { return tri.num_faces(); }
   int num_angles() const { return shape ? shape->num_angles() : 0; }
   /// Vertices of angle a (shape operator): the hinge's four, or a clamp hinge's three and −1.
@@ -317,6 +330,170 @@ std::vector<std::vector<int>> column_slabs(int columns,
 
 }  // namespace
 
+// The constructor's build steps, in order (each reads what the ones before it built).
+
+void TriangleShell::Impl::build_reference_elements(double angle_deg) {
+  const StripTriangulation& t = tri;
+  // Material frame (core/discretization.hpp): d2 = (cos θ, sin θ), d1 = (−sin θ, cos θ).
+  const double angle = angle_deg * std::numbers::pi / 180.0;
+  const Eigen::Vector2d d2(std::cos(angle), std::sin(angle)), d1(-std::sin(angle), std::cos(angle));
+  vertex_area = Eigen::VectorXd::Zero(t.num_vertices());
+  cst.reserve(static_cast<size_t>(t.num_faces()));
+  for (int f = 0; f < t.num_faces(); ++f) {
+    const auto X = [&](int k) { return Eigen::Vector2d(t.reference_xy.row(t.faces(f, k))); };
+    cst.push_back(cst_reference(X(0), X(1), X(2), d1, d2));
+    for (int k = 0; k < 3; ++k) vertex_area[t.faces(f, k)] += cst.back().area / 3.0;
+  }
+  hinge_weight.reserve(t.hinges.size());
+  for (const Hinge& h : t.hinges) {
+    const auto X = [&](int k) {
+      return Eigen::Vector2d(t.reference_xy.row(h.v[static_cast<size_t>(k)]));
+    };
+    hinge_weight.push_back(hinge_reference(X(0), X(1), X(2), X(3)).weight);
+  }
+}
+
+// Clamp hinges: every boundary edge on a selected end line, with the ghost apex the mirror
+// image of the real apex across that line (so (x1, x0, ghost) is counter-clockwise and flat).
+void TriangleShell::Impl::build_clamp_hinges(StripEnds ends, double length_m) {
+  const StripTriangulation& t = tri;
+  for (int f = 0; f < t.num_faces(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      ClampHinge c;
+      c.face = f;
+      c.local = {k, (k + 1) % 3, (k + 2) % 3};
+      for (int a = 0; a < 3; ++a) c.v[a] = t.faces(f, c.local[a]);
+      const int hc0 = t.half_column[c.v[0]], hc1 = t.half_column[c.v[1]];
+      const bool on_start = hc0 == 0 && hc1 == 0;
+      const bool on_end = hc0 == 2 * t.cells_along && hc1 == 2 * t.cells_along;
+      if (!((on_start && includes(ends, StripEnd::Start)) || (on_end && includes(ends, StripEnd::End))))
+        continue;
+      const double line_x = on_start ? 0.0 : length_m;
+      const Eigen::Vector2d apex = t.reference_xy.row(c.v[2]);
+      c.ghost = Eigen::Vector3d(2.0 * line_x - apex.x(), apex.y(), 0.0);
+      const double edge2 = (t.reference_xy.row(c.v[1]) - t.reference_xy.row(c.v[0])).squaredNorm();
+      c.weight = edge2 / (cst[static_cast<size_t>(f)].area / 3.0);
+      clamp_hinges.push_back(c);
+    }
+}
+
+void TriangleShell::Impl::build_bending_model(HingeModel model, double angle_deg) {
+  classes = classify_hinges(tri);
+  calibration = std::make_unique<HingeCalibration>(classes.response, angle_deg);
+  if (model == HingeModel::Directional) directional = std::make_unique<DirectionalHingeModel>(tri, classes, angle_deg);
+  if (model != HingeModel::ShapeOperator) return;
+  std::vector<ClampEdge> clamp_edges;
+  for (const ClampHinge& c : clamp_hinges) clamp_edges.push_back({c.face, c.local[0]});
+  shape = std::make_unique<ShapeOperatorBending>(tri, clamp_edges, angle_deg);
+  build_face_stencils();
+}
+
+// Each face's bending stencil (the union of its angle sources' vertices, sorted), the stencil
+// slots of every source's vertices, and each angle's entries in the flat ∂W/∂φ array.
+void TriangleShell::Impl::build_face_stencils() {
+  const auto& faces = shape->faces();
+  stencil.resize(faces.size());
+  source_slots.resize(faces.size());
+  face_source_start.resize(faces.size());
+  angle_users.assign(static_cast<size_t>(num_angles()), {});
+  int flat = 0;
+  for (size_t f = 0; f < faces.size(); ++f) {
+    std::vector<int>& st = stencil[f];
+    for (int a : faces[f].sources)
+      for (int v : angle_vertices(a))
+        if (v >= 0 && std::find(st.begin(), st.end(), v) == st.end()) st.push_back(v);
+    std::sort(st.begin(), st.end());
+    face_source_start[f] = flat;
+    for (int a : faces[f].sources) {
+      std::array<int, 4> slots{-1, -1, -1, -1};
+      const std::array<int, 4> av = angle_vertices(a);
+      for (size_t i = 0; i < 4; ++i)
+        if (av[i] >= 0) slots[i] = static_cast<int>(std::lower_bound(st.begin(), st.end(), av[i]) - st.begin());
+      source_slots[f].push_back(slots);
+      angle_users[static_cast<size_t>(a)].push_back(flat++);
+    }
+  }
+}
+
+// Assembly elements and the Hessian pattern: full 3×3 blocks for every vertex pair of a
+// triangle, a hinge or a face's bending stencil (a clamp hinge's lie in its triangle's); then
+// the slab schedules.
+void TriangleShell::Impl::build_assembly() {
+  const StripTriangulation& t = tri;
+  for (int f = 0; f < t.num_faces(); ++f) elements.add(std::array<int, 3>{t.faces(f, 0), t.faces(f, 1), t.faces(f, 2)});
+  for (const Hinge& h : t.hinges) elements.add(h.v);
+  for (const ClampHinge& c : clamp_hinges) elements.add(c.v);
+  for (const std::vector<int>& st : stencil) elements.add(st);
+  pattern = HessianPattern(t.num_vertices(), elements);
+  if (shape) build_bending_schedule();
+  build_schedule();
+}
+
+// Bending assembly elements: angles (a hinge spans ≤ 2 columns), then faces (stencils up to 5
+// columns on the regular patterns); slabs as wide as the widest.
+void TriangleShell::Impl::build_bending_schedule() {
+  std::vector<std::pair<int, int>> range;
+  auto columns_of = [&](const auto& vertices) {
+    std::pair<int, int> r{tri.cells_along, 0};
+    for (int v : vertices)
+      if (v >= 0) {
+        const int c = tri.half_column[static_cast<size_t>(v)] / 2;
+        r.first = std::min(r.first, c);
+        r.second = std::max(r.second, c);
+      }
+    return r;
+  };
+  for (int a = 0; a < num_angles(); ++a) range.push_back(columns_of(angle_vertices(a)));
+  for (const std::vector<int>& st : stencil) range.push_back(columns_of(st));
+  bending_schedule = ElementSchedule::alternating(column_slabs(tri.cells_along, range));
+}
+
+// Slabs: an element belongs to the slab of its leftmost vertex column.
+void TriangleShell::Impl::build_schedule() {
+  const StripTriangulation& t = tri;
+  const int columns = t.cells_along;
+  const int num_slabs = std::clamp(columns / kMinSlabColumns, 1, kMaxSlabs);
+  std::vector<std::vector<int>> slabs(static_cast<size_t>(num_slabs));
+  auto slab_of = [&](const auto& vertices) {
+    int column = columns;
+    for (int v : vertices) column = std::min(column, t.half_column[static_cast<size_t>(v)] / 2);
+    return static_cast<size_t>(std::min(column * num_slabs / columns, num_slabs - 1));
+  };
+  for (int f = 0; f < t.num_faces(); ++f)
+    slabs[slab_of(std::array<int, 3>{t.faces(f, 0), t.faces(f, 1), t.faces(f, 2)})].push_back(f);
+  for (int h = 0; h < num_hinges(); ++h) slabs[slab_of(t.hinges[static_cast<size_t>(h)].v)].push_back(t.num_faces() + h);
+  for (size_t c = 0; c < clamp_hinges.size(); ++c)
+    slabs[slab_of(clamp_hinges[c].v)].push_back(t.num_faces() + num_hinges() + static_cast<int>(c));
+  schedule = ElementSchedule::alternating(slabs);
+}
+
+// Point location grid (cells of the unperturbed pattern; perturbed triangles overlap at most
+// the neighbouring cells, found through their bounding boxes).
+void TriangleShell::Impl::build_point_location(double width_m) {
+  const StripTriangulation& t = tri;
+  const int nx = t.cells_along, ny = t.cells_across;
+  cell_triangles.assign(static_cast<size_t>(nx * ny), {});
+  const double y0 = -0.5 * width_m;
+  const auto cell_index = [](double value, double h, int n) {
+    return std::clamp(static_cast<int>(std::floor(value / h)), 0, n - 1);
+  };
+  // Widen by a little so points on shared edges find both triangles.
+  const double ex = kPointLocationSlack * t.cell_length_m, ey = kPointLocationSlack * t.cell_width_m;
+  for (int f = 0; f < t.num_faces(); ++f) {
+    Eigen::Vector2d lo = t.reference_xy.row(t.faces(f, 0)), hi = lo;
+    for (int k = 1; k < 3; ++k) {
+      lo = lo.cwiseMin(Eigen::Vector2d(t.reference_xy.row(t.faces(f, k))));
+      hi = hi.cwiseMax(Eigen::Vector2d(t.reference_xy.row(t.faces(f, k))));
+    }
+    const int i0 = cell_index(lo.x() - ex, t.cell_length_m, nx);
+    const int i1 = cell_index(hi.x() + ex, t.cell_length_m, nx);
+    const int j0 = cell_index(lo.y() - y0 - ey, t.cell_width_m, ny);
+    const int j1 = cell_index(hi.y() - y0 + ey, t.cell_width_m, ny);
+    for (int j = j0; j <= j1; ++j)
+      for (int i = i0; i <= i1; ++i) cell_triangles[static_cast<size_t>(j * nx + i)].push_back(f);
+  }
+}
+
 TriangleShell::TriangleShell(const StripSpec& strip, const MaterialParameters& parameters,
                              const TriangleShellOptions& options)
     : strip_(strip), options_(options) {
@@ -327,157 +504,13 @@ TriangleShell::TriangleShell(const StripSpec& strip, const MaterialParameters& p
   impl_ = std::make_unique<Impl>(options.threads);
   Impl& m = *impl_;
   m.tri = triangulate_strip(strip, options.pattern, options.perturbation, options.seed);
-  const StripTriangulation& t = m.tri;
-  const int nv = t.num_vertices();
-
-  rest_ = Eigen::VectorXd::Zero(3 * nv);
-  for (int v = 0; v < nv; ++v) rest_.segment<2>(3 * v) = t.reference_xy.row(v).transpose();
-
-  // Material frame (core/discretization.hpp): d2 = (cos θ, sin θ), d1 = (−sin θ, cos θ).
-  const double angle = strip.angle_deg * std::numbers::pi / 180.0;
-  const Eigen::Vector2d d2(std::cos(angle), std::sin(angle)), d1(-std::sin(angle), std::cos(angle));
-  m.vertex_area = Eigen::VectorXd::Zero(nv);
-  m.cst.reserve(static_cast<size_t>(t.num_faces()));
-  for (int f = 0; f < t.num_faces(); ++f) {
-    const auto X = [&](int k) { return Eigen::Vector2d(t.reference_xy.row(t.faces(f, k))); };
-    m.cst.push_back(cst_reference(X(0), X(1), X(2), d1, d2));
-    for (int k = 0; k < 3; ++k) m.vertex_area[t.faces(f, k)] += m.cst.back().area / 3.0;
-  }
-  m.hinge_weight.reserve(t.hinges.size());
-  for (const Hinge& h : t.hinges) {
-    const auto X = [&](int k) {
-      return Eigen::Vector2d(t.reference_xy.row(h.v[static_cast<size_t>(k)]));
-    };
-    m.hinge_weight.push_back(hinge_reference(X(0), X(1), X(2), X(3)).weight);
-  }
-  // Clamp hinges: every boundary edge on a selected end line, with the ghost apex the mirror
-  // image of the real apex across that line (so (x1, x0, ghost) is counter-clockwise and flat).
-  for (int f = 0; f < t.num_faces(); ++f)
-    for (int k = 0; k < 3; ++k) {
-      ClampHinge c;
-      c.face = f;
-      c.local = {k, (k + 1) % 3, (k + 2) % 3};
-      for (int a = 0; a < 3; ++a) c.v[a] = t.faces(f, c.local[a]);
-      const int hc0 = t.half_column[c.v[0]], hc1 = t.half_column[c.v[1]];
-      const bool on_start = hc0 == 0 && hc1 == 0;
-      const bool on_end = hc0 == 2 * t.cells_along && hc1 == 2 * t.cells_along;
-      if (!((on_start && includes(options.clamp_hinges, StripEnd::Start)) ||
-            (on_end && includes(options.clamp_hinges, StripEnd::End))))
-        continue;
-      const double line_x = on_start ? 0.0 : strip.length_m;
-      const Eigen::Vector2d apex = t.reference_xy.row(c.v[2]);
-      c.ghost = Eigen::Vector3d(2.0 * line_x - apex.x(), apex.y(), 0.0);
-      const double edge2 = (t.reference_xy.row(c.v[1]) - t.reference_xy.row(c.v[0])).squaredNorm();
-      c.weight = edge2 / (m.cst[static_cast<size_t>(f)].area / 3.0);
-      m.clamp_hinges.push_back(c);
-    }
-  m.classes = classify_hinges(t);
-  m.calibration = std::make_unique<HingeCalibration>(m.classes.response, strip.angle_deg);
-  if (options.hinge_model == HingeModel::Directional)
-    m.directional = std::make_unique<DirectionalHingeModel>(t, m.classes, strip.angle_deg);
-  if (options.hinge_model == HingeModel::ShapeOperator) {
-    std::vector<ClampEdge> clamp_edges;
-    for (const ClampHinge& c : m.clamp_hinges) clamp_edges.push_back({c.face, c.local[0]});
-    m.shape = std::make_unique<ShapeOperatorBending>(t, clamp_edges, strip.angle_deg);
-    const auto& faces = m.shape->faces();
-    m.stencil.resize(faces.size());
-    m.source_slots.resize(faces.size());
-    m.face_source_start.resize(faces.size());
-    m.angle_users.assign(static_cast<size_t>(m.num_angles()), {});
-    int flat = 0;
-    for (size_t f = 0; f < faces.size(); ++f) {
-      std::vector<int>& st = m.stencil[f];
-      for (int a : faces[f].sources)
-        for (int v : m.angle_vertices(a))
-          if (v >= 0 && std::find(st.begin(), st.end(), v) == st.end()) st.push_back(v);
-      std::sort(st.begin(), st.end());
-      m.face_source_start[f] = flat;
-      for (int a : faces[f].sources) {
-        std::array<int, 4> slots{-1, -1, -1, -1};
-        const std::array<int, 4> av = m.angle_vertices(a);
-        for (size_t i = 0; i < 4; ++i)
-          if (av[i] >= 0)
-            slots[i] = static_cast<int>(std::lower_bound(st.begin(), st.end(), av[i]) - st.begin());
-        m.source_slots[f].push_back(slots);
-        m.angle_users[static_cast<size_t>(a)].push_back(flat++);
-      }
-    }
-  }
-
-  // Assembly elements and the Hessian pattern: full 3×3 blocks for every vertex pair of a
-  // triangle, a hinge or a face's bending stencil (a clamp hinge's lie in its triangle's).
-  for (int f = 0; f < t.num_faces(); ++f)
-    m.elements.add(std::array<int, 3>{t.faces(f, 0), t.faces(f, 1), t.faces(f, 2)});
-  for (const Hinge& h : t.hinges) m.elements.add(h.v);
-  for (const ClampHinge& c : m.clamp_hinges) m.elements.add(c.v);
-  for (const std::vector<int>& st : m.stencil) m.elements.add(st);
-  m.pattern = HessianPattern(nv, m.elements);
-
-  if (m.shape) {
-    // Bending assembly elements: angles (a hinge spans ≤ 2 columns), then faces (stencils up
-    // to 5 columns on the regular patterns); slabs as wide as the widest.
-    std::vector<std::pair<int, int>> range;
-    auto columns_of = [&](const auto& vertices) {
-      std::pair<int, int> r{t.cells_along, 0};
-      for (int v : vertices)
-        if (v >= 0) {
-          const int c = t.half_column[static_cast<size_t>(v)] / 2;
-          r.first = std::min(r.first, c);
-          r.second = std::max(r.second, c);
-        }
-      return r;
-    };
-    for (int a = 0; a < m.num_angles(); ++a) range.push_back(columns_of(m.angle_vertices(a)));
-    for (const std::vector<int>& st : m.stencil) range.push_back(columns_of(st));
-    m.bending_schedule = ElementSchedule::alternating(column_slabs(t.cells_along, range));
-  }
-
-  // Slabs: an element belongs to the slab of its leftmost vertex column.
-  {
-    const int columns = t.cells_along;
-    const int num_slabs = std::clamp(columns / kMinSlabColumns, 1, kMaxSlabs);
-    std::vector<std::vector<int>> slabs(static_cast<size_t>(num_slabs));
-    auto slab_of = [&](const auto& vertices) {
-      int column = columns;
-      for (int v : vertices) column = std::min(column, t.half_column[static_cast<size_t>(v)] / 2);
-      return std::min(column * num_slabs / columns, num_slabs - 1);
-    };
-    for (int f = 0; f < t.num_faces(); ++f)
-      slabs[static_cast<size_t>(
-                slab_of(std::array<int, 3>{t.faces(f, 0), t.faces(f, 1), t.faces(f, 2)}))]
-          .push_back(f);
-    for (int h = 0; h < m.num_hinges(); ++h)
-      slabs[static_cast<size_t>(slab_of(t.hinges[static_cast<size_t>(h)].v))].push_back(
-          t.num_faces() + h);
-    for (size_t c = 0; c < m.clamp_hinges.size(); ++c)
-      slabs[static_cast<size_t>(slab_of(m.clamp_hinges[c].v))].push_back(
-          t.num_faces() + m.num_hinges() + static_cast<int>(c));
-    m.schedule = ElementSchedule::alternating(slabs);
-  }
-
-  // Point location grid (cells of the unperturbed pattern; perturbed triangles overlap at
-  // most the neighbouring cells, found through their bounding boxes).
-  const int nx = t.cells_along, ny = t.cells_across;
-  m.cell_triangles.assign(static_cast<size_t>(nx * ny), {});
-  const double y0 = -0.5 * strip.width_m;
-  for (int f = 0; f < t.num_faces(); ++f) {
-    Eigen::Vector2d lo = t.reference_xy.row(t.faces(f, 0)), hi = lo;
-    for (int k = 1; k < 3; ++k) {
-      lo = lo.cwiseMin(Eigen::Vector2d(t.reference_xy.row(t.faces(f, k))));
-      hi = hi.cwiseMax(Eigen::Vector2d(t.reference_xy.row(t.faces(f, k))));
-    }
-    const auto cell_index = [](double value, double h, int n) {
-      return std::clamp(static_cast<int>(std::floor(value / h)), 0, n - 1);
-    };
-    // Widen by a little so points on shared edges find both triangles.
-    const double ex = 1e-9 * t.cell_length_m, ey = 1e-9 * t.cell_width_m;
-    const int i0 = cell_index(lo.x() - ex, t.cell_length_m, nx);
-    const int i1 = cell_index(hi.x() + ex, t.cell_length_m, nx);
-    const int j0 = cell_index(lo.y() - y0 - ey, t.cell_width_m, ny);
-    const int j1 = cell_index(hi.y() - y0 + ey, t.cell_width_m, ny);
-    for (int j = j0; j <= j1; ++j)
-      for (int i = i0; i <= i1; ++i) m.cell_triangles[static_cast<size_t>(j * nx + i)].push_back(f);
-  }
+  rest_ = Eigen::VectorXd::Zero(3 * m.tri.num_vertices());
+  for (int v = 0; v < m.tri.num_vertices(); ++v) rest_.segment<2>(3 * v) = m.tri.reference_xy.row(v).transpose();
+  m.build_reference_elements(strip.angle_deg);
+  m.build_clamp_hinges(options.clamp_hinges, strip.length_m);
+  m.build_bending_model(options.hinge_model, strip.angle_deg);
+  m.build_assembly();
+  m.build_point_location(strip.width_m);
 
   law_ = std::make_unique<MaterialLaw>(parameters);
   update_hinge_stiffness();
