@@ -172,90 +172,119 @@ Options NloptOptimizer::resolved_options() const {
   return options_of(nlopt_option_bindings(), options_);
 }
 
-void NloptOptimizer::run(CountedProblem& problem, Eigen::VectorXd x0,
-                         OptimizerResult& result) const {
-  const auto n = static_cast<unsigned>(problem.dimension());
-  const auto as_vector = [](const Eigen::VectorXd& v) {
-    return std::vector<double>(v.data(), v.data() + v.size());
-  };
-  const double inf = std::numeric_limits<double>::infinity();
-  const Eigen::VectorXd lower =
-      problem.bounded() ? problem.lower() : Eigen::VectorXd::Constant(n, -inf);
-  const Eigen::VectorXd upper =
-      problem.bounded() ? problem.upper() : Eigen::VectorXd::Constant(n, inf);
+namespace {
 
-  Objective objective(problem, options_);
-  std::vector<double> x = as_vector(x0);
-  double value = 0.0;
-  std::optional<nlopt::result> code;
+// Failed evaluations (core/problem.hpp: an equilibrium that does not converge, an invalid
+// material) must be rejected points, but NLopt's algorithms cannot backtrack from one. The
+// adapter therefore restarts NLopt from the best point inside a box of half-width r around
+// it, r = half the distance to the failed trial (a trust region the library respects as
+// bounds). When a boxed run ends on the box's edge (not on a real bound) the box is grown
+// kBoxGrowth-fold and the run continues; at most kMaxRestarts restarts, all within
+// max_evaluations.
+constexpr int kMaxRestarts = 20;
+constexpr double kBoxGrowth = 4;
+// A point is on a box edge within this fraction of max(1, |x_i|).
+constexpr double kEdgeTolerance = 1e-9;
+
+std::vector<double> as_vector(const Eigen::VectorXd& v) { return std::vector<double>(v.data(), v.data() + v.size()); }
+
+struct Box {
+  Eigen::VectorXd lo, hi;
+};
+
+// The problem's bounds (±∞ when it has none), cut to the box of half-width `radius` around
+// `centre` when the radius is finite.
+Box trust_box(const Box& bounds, const Eigen::VectorXd& centre, double radius) {
+  if (!std::isfinite(radius)) return bounds;
+  return {bounds.lo.cwiseMax((centre.array() - radius).matrix()), bounds.hi.cwiseMin((centre.array() + radius).matrix())};
+}
+
+// Whether `x` lies on an edge of `box` that is not one of the problem's own bounds.
+bool on_artificial_edge(const Eigen::VectorXd& x, const Box& box, const Box& bounds) {
+  for (Eigen::Index i = 0; i < x.size(); ++i) {
+    const double tol = kEdgeTolerance * std::max(1.0, std::abs(x[i]));
+    if ((x[i] - box.lo[i] <= tol && box.lo[i] > bounds.lo[i]) || (box.hi[i] - x[i] <= tol && box.hi[i] < bounds.hi[i]))
+      return true;
+  }
+  return false;
+}
+
+// How one NLopt run ended, as far as the library says.
+struct RunEnd {
+  std::optional<nlopt::result> code;  ///< empty when the run threw
   std::string library_error;
   bool roundoff_limited = false;
+};
 
-  // Failed evaluations (core/problem.hpp: an equilibrium that does not converge, an invalid
-  // material) must be rejected points, but NLopt's algorithms cannot backtrack from one. The
-  // adapter therefore restarts NLopt from the best point inside a box of half-width r around
-  // it, r = half the distance to the failed trial (a trust region the library respects as
-  // bounds). When a boxed run ends on the box's edge (not on a real bound) the box is grown ×4
-  // and the run continues; at most kMaxRestarts restarts, all within max_evaluations.
-  constexpr int kMaxRestarts = 20;
-  double radius = inf;
-  for (int attempt = 0; attempt <= kMaxRestarts; ++attempt) {
-    nlopt::opt opt(algorithm_id(options_.algorithm), n);
-    const Eigen::VectorXd centre = objective.has_best() ? objective.best_x() : x0;
-    Eigen::VectorXd lo = lower, hi = upper;
-    if (std::isfinite(radius)) {
-      lo = lower.cwiseMax((centre.array() - radius).matrix());
-      hi = upper.cwiseMin((centre.array() + radius).matrix());
-    }
-    if (problem.bounded() || std::isfinite(radius)) {
-      opt.set_lower_bounds(as_vector(lo));
-      opt.set_upper_bounds(as_vector(hi));
-    }
-    opt.set_ftol_rel(options_.function_tolerance);
-    opt.set_xtol_rel(options_.step_tolerance);
-    opt.set_maxeval(std::max(1, options_.max_evaluations - problem.evaluations()));
-    if (options_.initial_step > 0.0) opt.set_initial_step(options_.initial_step);
-    if (options_.vector_storage > 0)
-      opt.set_vector_storage(static_cast<unsigned>(options_.vector_storage));
-    opt.set_min_objective(&Objective::call, &objective);
-
-    x = as_vector(centre);
-    objective.reset_stop();
-    code.reset();
-    roundoff_limited = false;
-    try {
-      code = opt.optimize(x, value);
-    } catch (const nlopt::forced_stop&) {
-      // Our objective asked for it; objective.stop() or objective.error() says why.
-    } catch (const nlopt::roundoff_limited&) {
-      roundoff_limited = true;
-    } catch (const std::exception& e) {
-      library_error = e.what();
-    }
-    if (!objective.error().empty() || !objective.has_best()) break;
-    const auto& stop = objective.stop();
-    // When our objective stopped the run, that is the reason, whatever NLopt then reports:
-    // LD_LBFGS answers a forced stop inside its line search with a generic "nlopt failure".
-    if (stop) library_error.clear();
-    if (!library_error.empty()) break;
-    if (stop && stop->non_finite_trial) {
-      radius = 0.5 * (stop->x - objective.best_x()).lpNorm<Eigen::Infinity>();
-      if (!(radius > 0)) break;
-      continue;
-    }
-    if (stop || !std::isfinite(radius) || !code) break;
-    // Converged inside the box: done unless the best point sits on an artificial edge.
-    const Eigen::VectorXd& best = objective.best_x();
-    bool on_edge = false;
-    for (unsigned i = 0; i < n; ++i) {
-      const double tol = 1e-9 * std::max(1.0, std::abs(best[i]));
-      if ((best[i] - lo[i] <= tol && lo[i] > lower[i]) || (hi[i] - best[i] <= tol && hi[i] < upper[i]))
-        on_edge = true;
-    }
-    if (!on_edge) break;
-    radius *= 4;
+// One NLopt run from `start` within `box` (bounds set when the problem has them or the box
+// is a trust region), the evaluations left as its budget.
+RunEnd run_once(const NloptOptions& options, CountedProblem& problem, Objective& objective, const Box& box,
+                bool boxed, const Eigen::VectorXd& start) {
+  const auto n = static_cast<unsigned>(problem.dimension());
+  nlopt::opt opt(algorithm_id(options.algorithm), n);
+  if (boxed) {
+    opt.set_lower_bounds(as_vector(box.lo));
+    opt.set_upper_bounds(as_vector(box.hi));
   }
+  opt.set_ftol_rel(options.function_tolerance);
+  opt.set_xtol_rel(options.step_tolerance);
+  opt.set_maxeval(std::max(1, options.max_evaluations - problem.evaluations()));
+  if (options.initial_step > 0.0) opt.set_initial_step(options.initial_step);
+  if (options.vector_storage > 0) opt.set_vector_storage(static_cast<unsigned>(options.vector_storage));
+  opt.set_min_objective(&Objective::call, &objective);
 
+  std::vector<double> x = as_vector(start);
+  double value = 0.0;
+  objective.reset_stop();
+  RunEnd end;
+  try {
+    end.code = opt.optimize(x, value);
+  } catch (const nlopt::forced_stop&) {
+    // Our objective asked for it; objective.stop() or objective.error() says why.
+  } catch (const nlopt::roundoff_limited&) {
+    end.roundoff_limited = true;
+  } catch (const std::exception& e) {
+    end.library_error = e.what();
+  }
+  // When our objective stopped the run, that is the reason, whatever NLopt then reports:
+  // LD_LBFGS answers a forced stop inside its line search with a generic "nlopt failure".
+  if (objective.stop()) end.library_error.clear();
+  return end;
+}
+
+// The status and message of NLopt's own return code.
+void describe_code(nlopt::result code, const NloptOptions& options, OptimizerResult& result) {
+  switch (code) {
+    case nlopt::SUCCESS:
+    case nlopt::STOPVAL_REACHED:
+      result.status = OptimizerStatus::converged;
+      result.message = "NLopt " + options.algorithm + ": success";
+      break;
+    case nlopt::FTOL_REACHED:
+      result.status = OptimizerStatus::converged;
+      result.message = fmt::format("NLopt {}: relative function change <= function_tolerance {:.3g}",
+                                   options.algorithm, options.function_tolerance);
+      break;
+    case nlopt::XTOL_REACHED:
+      result.status = OptimizerStatus::converged;
+      result.message =
+          fmt::format("NLopt {}: relative step <= step_tolerance {:.3g}", options.algorithm, options.step_tolerance);
+      break;
+    case nlopt::MAXEVAL_REACHED:
+    case nlopt::MAXTIME_REACHED:
+      result.status = OptimizerStatus::iteration_limit;
+      result.message = fmt::format("max_evaluations = {} reached", options.max_evaluations);
+      break;
+    default:
+      result.status = OptimizerStatus::failed;
+      result.message = fmt::format("NLopt {} returned code {}", options.algorithm, static_cast<int>(code));
+      break;
+  }
+}
+
+// The result from the best point and the last run's end: an exception in the problem, then
+// our objective's stop, then round-off, a library failure, and last NLopt's code.
+void finish(const Objective& objective, const RunEnd& end, const NloptOptions& options, OptimizerResult& result) {
   if (objective.has_best()) {
     result.x = objective.best_x();
     result.summary.final_value = objective.best_value();
@@ -272,43 +301,45 @@ void NloptOptimizer::run(CountedProblem& problem, Eigen::VectorXd x0,
       result.summary.final_value = stop->value;
       result.summary.final_gradient_norm = stop->gradient_norm;
     }
-  } else if (roundoff_limited) {
+  } else if (end.roundoff_limited) {
     result.status = OptimizerStatus::stalled;
-    result.message = "NLopt " + options_.algorithm + ": halted by round-off";
-  } else if (!library_error.empty() || !code) {
+    result.message = "NLopt " + options.algorithm + ": halted by round-off";
+  } else if (!end.library_error.empty() || !end.code) {
     result.status = OptimizerStatus::failed;
-    result.message = "NLopt " + options_.algorithm + " failed: " +
-                     (library_error.empty() ? std::string("forced stop") : library_error);
+    result.message = "NLopt " + options.algorithm +
+                     " failed: " + (end.library_error.empty() ? std::string("forced stop") : end.library_error);
   } else {
-    switch (*code) {
-      case nlopt::SUCCESS:
-      case nlopt::STOPVAL_REACHED:
-        result.status = OptimizerStatus::converged;
-        result.message = "NLopt " + options_.algorithm + ": success";
-        break;
-      case nlopt::FTOL_REACHED:
-        result.status = OptimizerStatus::converged;
-        result.message =
-            fmt::format("NLopt {}: relative function change <= function_tolerance {:.3g}",
-                        options_.algorithm, options_.function_tolerance);
-        break;
-      case nlopt::XTOL_REACHED:
-        result.status = OptimizerStatus::converged;
-        result.message = fmt::format("NLopt {}: relative step <= step_tolerance {:.3g}",
-                                     options_.algorithm, options_.step_tolerance);
-        break;
-      case nlopt::MAXEVAL_REACHED:
-      case nlopt::MAXTIME_REACHED:
-        result.status = OptimizerStatus::iteration_limit;
-        result.message = fmt::format("max_evaluations = {} reached", options_.max_evaluations);
-        break;
-      default:
-        result.status = OptimizerStatus::failed;
-        result.message =
-            fmt::format("NLopt {} returned code {}", options_.algorithm, static_cast<int>(*code));
-        break;
-    }
+    describe_code(*end.code, options, result);
   }
+}
+
+}  // namespace
+
+void NloptOptimizer::run(CountedProblem& problem, Eigen::VectorXd x0, OptimizerResult& result) const {
+  const double inf = std::numeric_limits<double>::infinity();
+  const Eigen::Index n = problem.dimension();
+  const Box bounds = problem.bounded() ? Box{problem.lower(), problem.upper()}
+                                       : Box{Eigen::VectorXd::Constant(n, -inf), Eigen::VectorXd::Constant(n, inf)};
+  Objective objective(problem, options_);
+  RunEnd end;
+  double radius = inf;  // of the trust box (kMaxRestarts above)
+  for (int attempt = 0; attempt <= kMaxRestarts; ++attempt) {
+    const Eigen::VectorXd centre = objective.has_best() ? objective.best_x() : x0;
+    const Box box = trust_box(bounds, centre, radius);
+    end = run_once(options_, problem, objective, box, problem.bounded() || std::isfinite(radius), centre);
+    if (!objective.error().empty() || !objective.has_best() || !end.library_error.empty()) break;
+    const auto& stop = objective.stop();
+    if (stop && stop->non_finite_trial) {
+      radius = 0.5 * (stop->x - objective.best_x()).lpNorm<Eigen::Infinity>();
+      if (!(radius > 0)) break;
+      continue;
+    }
+    if (stop || !std::isfinite(radius) || !end.code) break;
+    // Converged inside the box: done unless the best point sits on an artificial edge.
+    if (!on_artificial_edge(objective.best_x(), box, bounds)) break;
+    radius *= kBoxGrowth;
+  }
+  finish(objective, end, options_, result);
 }
 
 }  // namespace twill
