@@ -52,131 +52,164 @@ Eigen::Matrix3d ShapeOperatorBending::law_stiffness(const MaterialParameters& p)
   return C;
 }
 
-ShapeOperatorBending::ShapeOperatorBending(const StripTriangulation& tri,
-                                           const std::vector<ClampEdge>& clamp_edges,
-                                           double angle_deg) {
-  const int nf = tri.num_faces();
-  const int nv = tri.num_vertices();
-  num_hinges_ = static_cast<int>(tri.hinges.size());
-  num_angles_ = num_hinges_ + static_cast<int>(clamp_edges.size());
-  const Eigen::Matrix3d frame = material_frame_map(angle_deg);
+namespace {
 
+using Face = ShapeOperatorBending::Face;
+using HingeModes = Eigen::Matrix<double, Eigen::Dynamic, 3>;
+
+/// Per hinge, φ's mode: hinge_reference's mode m pairs with vec(K) = (K11, K22, √2 K12):
+/// θ ≈ m0 Kxx + m1 Kyy + √2 m2 Kxy, and φ = −θ.
+HingeModes reference_hinge_modes(const StripTriangulation& tri) {
+  HingeModes modes(static_cast<Eigen::Index>(tri.hinges.size()), 3);
+  for (size_t h = 0; h < tri.hinges.size(); ++h) {
+    const Hinge& hinge = tri.hinges[h];
+    const auto X = [&](int k) { return Eigen::Vector2d(tri.reference_xy.row(hinge.v[static_cast<size_t>(k)])); };
+    const Eigen::Vector3d m = hinge_reference(X(0), X(1), X(2), X(3)).mode;
+    modes.row(static_cast<Eigen::Index>(h)) << -m[0], -m[1], -std::sqrt(2.0) * m[2];
+  }
+  return modes;
+}
+
+/// Per face and local edge: the angle id on it (−1: free boundary edge) and, for interior
+/// hinges, the face and local edge on the other side.
+struct EdgeAngles {
+  std::vector<std::array<int, 3>> angle;
+  std::vector<std::array<std::pair<int, int>, 3>> other_side;
+};
+
+EdgeAngles edge_angles(const StripTriangulation& tri, const std::vector<ClampEdge>& clamp_edges) {
+  const int nf = tri.num_faces(), nv = tri.num_vertices();
   // Directed edge (a, b) → (face, local edge k) with (a, b) = (v_k, v_{k+1}) counter-clockwise.
   std::unordered_map<long long, std::pair<int, int>> directed;
   auto key = [nv](int a, int b) { return static_cast<long long>(a) * nv + b; };
   for (int f = 0; f < nf; ++f)
     for (int k = 0; k < 3; ++k) directed[key(tri.faces(f, k), tri.faces(f, (k + 1) % 3))] = {f, k};
-
-  // Per face and local edge: the angle id on it (−1: free boundary edge) and, for interior
-  // hinges, the face and local edge on the other side.
-  std::vector<std::array<int, 3>> edge_angle(static_cast<size_t>(nf), {-1, -1, -1});
-  std::vector<std::array<std::pair<int, int>, 3>> other_side(static_cast<size_t>(nf));
-  modes_.resize(num_hinges_, 3);
-  for (int h = 0; h < num_hinges_; ++h) {
+  EdgeAngles out{std::vector<std::array<int, 3>>(static_cast<size_t>(nf), {-1, -1, -1}),
+                 std::vector<std::array<std::pair<int, int>, 3>>(static_cast<size_t>(nf))};
+  const auto at = [](auto& table, std::pair<int, int> e) -> auto& {
+    return table[static_cast<size_t>(e.first)][static_cast<size_t>(e.second)];
+  };
+  const int num_hinges = static_cast<int>(tri.hinges.size());
+  for (int h = 0; h < num_hinges; ++h) {
     const Hinge& hinge = tri.hinges[static_cast<size_t>(h)];
-    const auto X = [&](int k) {
-      return Eigen::Vector2d(tri.reference_xy.row(hinge.v[static_cast<size_t>(k)]));
-    };
-    // hinge_reference's mode m pairs with vec(K) = (K11, K22, √2 K12): θ ≈ m0 Kxx + m1 Kyy +
-    // √2 m2 Kxy. φ = −θ.
-    const Eigen::Vector3d m = hinge_reference(X(0), X(1), X(2), X(3)).mode;
-    modes_.row(h) << -m[0], -m[1], -std::sqrt(2.0) * m[2];
     const auto a = directed.at(key(hinge.v[0], hinge.v[1]));  // triangle (v0, v1, v2)
     const auto b = directed.at(key(hinge.v[1], hinge.v[0]));  // triangle (v1, v0, v3)
-    edge_angle[static_cast<size_t>(a.first)][static_cast<size_t>(a.second)] = h;
-    edge_angle[static_cast<size_t>(b.first)][static_cast<size_t>(b.second)] = h;
-    other_side[static_cast<size_t>(a.first)][static_cast<size_t>(a.second)] = b;
-    other_side[static_cast<size_t>(b.first)][static_cast<size_t>(b.second)] = a;
+    at(out.angle, a) = at(out.angle, b) = h;
+    at(out.other_side, a) = b;
+    at(out.other_side, b) = a;
   }
   for (size_t c = 0; c < clamp_edges.size(); ++c) {
-    const ClampEdge& e = clamp_edges[c];
-    if (edge_angle[static_cast<size_t>(e.face)][static_cast<size_t>(e.local_edge)] >= 0)
-      throw std::logic_error("ShapeOperatorBending: a clamp edge is an interior hinge");
-    edge_angle[static_cast<size_t>(e.face)][static_cast<size_t>(e.local_edge)] =
-        num_hinges_ + static_cast<int>(c);
+    int& angle = at(out.angle, std::pair<int, int>{clamp_edges[c].face, clamp_edges[c].local_edge});
+    if (angle >= 0) throw std::logic_error("ShapeOperatorBending: a clamp edge is an interior hinge");
+    angle = num_hinges + static_cast<int>(c);
   }
+  return out;
+}
 
-  // Geometry of (1) and the consistent split Z_T of complete faces.
+/// Face f's geometry of (1): its area and curvature map; N (k = N s, columns |ē_k|/Ā (n_x²,
+/// n_y², n_x n_y)) into `normal_map`.
+Face face_geometry(const StripTriangulation& tri, int f, const Eigen::Matrix3d& frame, Eigen::Matrix3d* normal_map) {
+  Face face;
+  const auto X = [&](int k) { return Eigen::Vector2d(tri.reference_xy.row(tri.faces(f, k % 3))); };
+  const Eigen::Vector2d e1 = X(1) - X(0), e2 = X(2) - X(0);
+  face.area = 0.5 * (e1.x() * e2.y() - e1.y() * e2.x());
+  Eigen::Matrix3d& N = *normal_map;
+  for (int k = 0; k < 3; ++k) {
+    const Eigen::Vector2d e = X(k + 1) - X(k);
+    const double len = e.norm();
+    const Eigen::Vector2d n(e.y() / len, -e.x() / len);  // outward for counter-clockwise
+    N.col(k) << n.x() * n.x(), n.y() * n.y(), n.x() * n.y();
+    N.col(k) *= len / face.area;
+  }
+  face.curvature_map = frame * N;
+  return face;
+}
+
+/// The consistent split Z_T of a face whose three edges are interior hinges (`angles`), or
+/// nothing (and the face incomplete) when it has another edge or a degenerate stencil.
+Eigen::Matrix3d consistent_split(const std::array<int, 3>& angles, int num_hinges, const HingeModes& modes,
+                                 const Eigen::Matrix3d& normal_map, Face* face) {
+  face->complete = std::all_of(angles.begin(), angles.end(), [&](int a) { return a >= 0 && a < num_hinges; });
+  if (!face->complete) return Eigen::Matrix3d::Zero();
+  Eigen::Matrix3d M;
+  for (int k = 0; k < 3; ++k) M.row(k) = modes.row(angles[static_cast<size_t>(k)]);
+  const Eigen::FullPivLU<Eigen::Matrix3d> lu(M), lu_n(normal_map);
+  if (lu.rcond() > kModeConditionFloor && lu_n.rcond() > kModeConditionFloor) return lu_n.solve(lu.inverse());
+  face->complete = false;
+  return Eigen::Matrix3d::Zero();
+}
+
+/// Face f's sources and edge map, split (3): each measured edge's rotation from its own angle
+/// and the consistent splits of the complete faces on either side.
+void split_sources(int f, const EdgeAngles& edges, const std::vector<Eigen::Matrix3d>& Z, int num_hinges,
+                   std::vector<Face>& faces) {
+  Face& face = faces[static_cast<size_t>(f)];
+  const auto fu = static_cast<size_t>(f);
+  std::vector<std::array<double, 3>> rows;  // per source: coefficient on s_0, s_1, s_2
+  auto add = [&](int angle, int k, double c) {
+    size_t j = 0;
+    while (j < face.sources.size() && face.sources[j] != angle) ++j;
+    if (j == face.sources.size()) {
+      face.sources.push_back(angle);
+      rows.push_back({0.0, 0.0, 0.0});
+    }
+    rows[j][static_cast<size_t>(k)] += c;
+  };
+  // s^c_{g,k'} = Σ_j Z_g(k', j) φ(angle on edge j of g), times `scale`.
+  auto add_consistent = [&](int g, int k_g, int k, double scale) {
+    const auto gu = static_cast<size_t>(g);
+    for (int j = 0; j < 3; ++j) add(edges.angle[gu][static_cast<size_t>(j)], k, scale * Z[gu](k_g, j));
+  };
+  for (int k = 0; k < 3; ++k) {
+    const int angle = edges.angle[fu][static_cast<size_t>(k)];
+    if (angle < 0) continue;  // free edge
+    face.measured.push_back(k);
+    if (angle >= num_hinges) {
+      add(angle, k, 1.0);  // clamp: s = φ_b, the tilt against the platform
+      continue;
+    }
+    const auto [g, k_g] = edges.other_side[fu][static_cast<size_t>(k)];
+    const bool mine = face.complete, theirs = faces[static_cast<size_t>(g)].complete;
+    if (mine && theirs) {
+      add(angle, k, 0.5);
+      add_consistent(f, k, k, 0.5);
+      add_consistent(g, k_g, k, -0.5);
+    } else if (mine) {
+      add_consistent(f, k, k, 1.0);
+    } else if (theirs) {
+      add(angle, k, 1.0);
+      add_consistent(g, k_g, k, -1.0);
+    } else {
+      add(angle, k, 0.5);
+    }
+  }
+  face.edge_map.resize(static_cast<Eigen::Index>(face.measured.size()), static_cast<Eigen::Index>(face.sources.size()));
+  for (size_t r = 0; r < face.measured.size(); ++r)
+    for (size_t j = 0; j < face.sources.size(); ++j)
+      face.edge_map(static_cast<Eigen::Index>(r), static_cast<Eigen::Index>(j)) =
+          rows[j][static_cast<size_t>(face.measured[r])];
+}
+
+}  // namespace
+
+ShapeOperatorBending::ShapeOperatorBending(const StripTriangulation& tri, const std::vector<ClampEdge>& clamp_edges,
+                                           double angle_deg) {
+  const int nf = tri.num_faces();
+  num_hinges_ = static_cast<int>(tri.hinges.size());
+  num_angles_ = num_hinges_ + static_cast<int>(clamp_edges.size());
+  modes_ = reference_hinge_modes(tri);
+  const EdgeAngles edges = edge_angles(tri, clamp_edges);
+  const Eigen::Matrix3d frame = material_frame_map(angle_deg);
+  // Every face's geometry and split first: a face's sources read its neighbours' completeness.
   faces_.resize(static_cast<size_t>(nf));
-  std::vector<Eigen::Matrix3d> Z(static_cast<size_t>(nf), Eigen::Matrix3d::Zero());
+  std::vector<Eigen::Matrix3d> Z(static_cast<size_t>(nf));
   for (int f = 0; f < nf; ++f) {
-    Face& face = faces_[static_cast<size_t>(f)];
-    const auto X = [&](int k) { return Eigen::Vector2d(tri.reference_xy.row(tri.faces(f, k % 3))); };
-    const Eigen::Vector2d e1 = X(1) - X(0), e2 = X(2) - X(0);
-    face.area = 0.5 * (e1.x() * e2.y() - e1.y() * e2.x());
-    Eigen::Matrix3d N;  // k = N s: columns |ē_k|/Ā (n_x², n_y², n_x n_y)
-    for (int k = 0; k < 3; ++k) {
-      const Eigen::Vector2d e = X(k + 1) - X(k);
-      const double len = e.norm();
-      const Eigen::Vector2d n(e.y() / len, -e.x() / len);  // outward for counter-clockwise
-      N.col(k) << n.x() * n.x(), n.y() * n.y(), n.x() * n.y();
-      N.col(k) *= len / face.area;
-    }
-    face.curvature_map = frame * N;
-    const auto& angles = edge_angle[static_cast<size_t>(f)];
-    face.complete = angles[0] >= 0 && angles[0] < num_hinges_ && angles[1] >= 0 &&
-                    angles[1] < num_hinges_ && angles[2] >= 0 && angles[2] < num_hinges_;
-    if (face.complete) {
-      Eigen::Matrix3d M;
-      for (int k = 0; k < 3; ++k) M.row(k) = modes_.row(angles[static_cast<size_t>(k)]);
-      const Eigen::FullPivLU<Eigen::Matrix3d> lu(M), lu_n(N);
-      if (lu.rcond() > kModeConditionFloor && lu_n.rcond() > kModeConditionFloor)
-        Z[static_cast<size_t>(f)] = lu_n.solve(lu.inverse());
-      else
-        face.complete = false;
-    }
+    Eigen::Matrix3d N;
+    faces_[static_cast<size_t>(f)] = face_geometry(tri, f, frame, &N);
+    Z[static_cast<size_t>(f)] = consistent_split(edges.angle[static_cast<size_t>(f)], num_hinges_, modes_, N,
+                                                 &faces_[static_cast<size_t>(f)]);
   }
-
-  // Sources and the edge map of every face, split (3).
-  for (int f = 0; f < nf; ++f) {
-    Face& face = faces_[static_cast<size_t>(f)];
-    const auto fu = static_cast<size_t>(f);
-    std::vector<std::array<double, 3>> rows;  // per source: coefficient on s_0, s_1, s_2
-    auto add = [&](int angle, int k, double c) {
-      size_t j = 0;
-      while (j < face.sources.size() && face.sources[j] != angle) ++j;
-      if (j == face.sources.size()) {
-        face.sources.push_back(angle);
-        rows.push_back({0.0, 0.0, 0.0});
-      }
-      rows[j][static_cast<size_t>(k)] += c;
-    };
-    // s^c_{g,k'} = Σ_j Z_g(k', j) φ(angle on edge j of g), times `scale`.
-    auto add_consistent = [&](int g, int k_g, int k, double scale) {
-      const auto gu = static_cast<size_t>(g);
-      for (int j = 0; j < 3; ++j)
-        add(edge_angle[gu][static_cast<size_t>(j)], k, scale * Z[gu](k_g, j));
-    };
-    for (int k = 0; k < 3; ++k) {
-      const int angle = edge_angle[fu][static_cast<size_t>(k)];
-      if (angle < 0) continue;  // free edge
-      face.measured.push_back(k);
-      if (angle >= num_hinges_) {
-        add(angle, k, 1.0);  // clamp: s = φ_b, the tilt against the platform
-        continue;
-      }
-      const auto [g, k_g] = other_side[fu][static_cast<size_t>(k)];
-      const bool mine = face.complete, theirs = faces_[static_cast<size_t>(g)].complete;
-      if (mine && theirs) {
-        add(angle, k, 0.5);
-        add_consistent(f, k, k, 0.5);
-        add_consistent(g, k_g, k, -0.5);
-      } else if (mine) {
-        add_consistent(f, k, k, 1.0);
-      } else if (theirs) {
-        add(angle, k, 1.0);
-        add_consistent(g, k_g, k, -1.0);
-      } else {
-        add(angle, k, 0.5);
-      }
-    }
-    face.edge_map.resize(static_cast<Eigen::Index>(face.measured.size()),
-                         static_cast<Eigen::Index>(face.sources.size()));
-    for (size_t r = 0; r < face.measured.size(); ++r)
-      for (size_t j = 0; j < face.sources.size(); ++j)
-        face.edge_map(static_cast<Eigen::Index>(r), static_cast<Eigen::Index>(j)) =
-            rows[j][static_cast<size_t>(face.measured[r])];
-  }
+  for (int f = 0; f < nf; ++f) split_sources(f, edges, Z, num_hinges_, faces_);
 }
 
 ShapeOperatorStiffness ShapeOperatorBending::solve(const MaterialParameters& p) const {
