@@ -2,6 +2,7 @@
 
 #include <Eigen/Cholesky>
 #include <cmath>
+#include <optional>
 #include <limits>
 #include <numbers>
 #include <stdexcept>
@@ -157,6 +158,120 @@ ScalarRoot safeguarded_newton(Function&& f, double x0, double lower_limit) {
   return fail("lateral solve did not reach machine precision in 200 iterations");
 }
 
+/// The lateral equilibrium of a uniform-strain strip at a fixed axial strain E_xx: ∂ψ/∂E_yy = 0,
+/// and ∂ψ/∂E_xy = 0 when the shear is free (nested scalar solves).
+class LateralEquilibrium {
+ public:
+  LateralEquilibrium(StripFrameLaw& psi, double exx) : psi_(psi), a12_(psi.law.parameters().a12_Pa), exx_(exx) {}
+
+  /// The strip-frame strain (E_xx, E_yy, E_xy) from `guess` (E_yy, E_xy), or nothing with the
+  /// reason in `message`.
+  std::optional<Vector3> solve(const Eigen::Vector2d& guess, bool free_shear, std::string* message) {
+    eyy_ = guess[0];
+    double exy = 0;
+    if (free_shear) {
+      const ScalarRoot r = solve_exy(guess[1]);
+      if (!r.converged) {
+        if (inner_ok_) *message = "E_xy: " + r.message;
+        else *message = inner_message_;
+        return std::nullopt;
+      }
+      exy = r.x;
+    }
+    // The converged E_yy belongs to the last inner solve, which ran at the final E_xy only if
+    // the outer solve's last evaluation was there: solve once more at the final E_xy (one
+    // evaluation when it already is).
+    if (std::isnan(solve_eyy(exy))) {
+      *message = inner_message_;
+      return std::nullopt;
+    }
+    return Vector3(exx_, eyy_, exy);
+  }
+
+ private:
+  // Round-off scale of g_l = Σ_i T_il ∂ψ/∂e_i: the sum of the magnitudes of its terms, where
+  // ∂ψ/∂e1 = F1' + a12 e2 and ∂ψ/∂e2 = F3' + a12 e1 (material_law.hpp) count as two terms each.
+  // Evaluated at the strain of psi's last call.
+  double noise_scale(int l) const {
+    const Vector3& e = psi_.e;
+    const Vector3& ge = psi_.ge;
+    const Vector3 terms(std::abs(ge[0] - a12_ * e[1]) + std::abs(a12_ * e[1]),
+                        std::abs(ge[1] - a12_ * e[0]) + std::abs(a12_ * e[0]), std::abs(ge[2]));
+    return psi_.t.col(l).cwiseAbs().dot(terms);
+  }
+
+  // Inner solve: ∂ψ/∂E_yy = 0 at fixed (E_xx, E_xy), from the last E_yy. E_yy > −½ keeps the
+  // lateral stretch √(1 + 2E_yy) real. NaN when it fails.
+  double solve_eyy(double exy) {
+    const ScalarRoot r = safeguarded_newton(
+        [&](double y) {
+          psi_(Vector3(exx_, y, exy), &g_, &h_);
+          return Residual{g_[1], h_(1, 1), noise_scale(1)};
+        },
+        eyy_, -0.5);
+    if (!r.converged) {
+      inner_ok_ = false;
+      inner_message_ = "E_yy: " + r.message;
+      return std::numeric_limits<double>::quiet_NaN();
+    }
+    eyy_ = r.x;
+    return eyy_;
+  }
+
+  // Outer solve: ∂ψ/∂E_xy = 0 along the inner solution E_yy*(E_xy). Its derivative is the
+  // Schur complement H_ss − H_sy²/H_yy (dE_yy*/dE_xy = −H_ys/H_yy). Its round-off includes the
+  // inner solution's: δE_yy ≈ 4ε·scale_y/H_yy moves it by H_sy δE_yy.
+  ScalarRoot solve_exy(double guess) {
+    return safeguarded_newton(
+        [&](double s) {
+          if (std::isnan(solve_eyy(s))) return Residual{std::numeric_limits<double>::quiet_NaN(), 0, 0};
+          psi_(Vector3(exx_, eyy_, s), &g_, &h_);
+          return Residual{g_[2], h_(2, 2) - h_(1, 2) * h_(1, 2) / h_(1, 1),
+                          noise_scale(2) + std::abs(h_(1, 2) / h_(1, 1)) * noise_scale(1)};
+        },
+        guess, -std::numeric_limits<double>::infinity());
+  }
+
+  StripFrameLaw& psi_;
+  double a12_, exx_;
+  double eyy_ = 0;
+  bool inner_ok_ = true;
+  std::string inner_message_;
+  Vector3 g_;
+  Matrix3 h_;
+};
+
+/// The lateral block l = {E_yy} (held shear) or {E_yy, E_xy} (free) of the strip-frame Hessian
+/// at equilibrium, factored, and the axial row's coupling H_xl to it.
+struct LateralBlock {
+  int size;
+  Eigen::RowVectorXd hxl;
+  Eigen::LDLT<Eigen::MatrixXd> factor;
+  bool positive_definite() const { return factor.info() == Eigen::Success && factor.vectorD().minCoeff() > 0; }
+};
+
+LateralBlock lateral_block(const Matrix3& h, bool free_shear) {
+  const int nl = free_shear ? 2 : 1;
+  const Eigen::MatrixXd hll = h.block(1, 1, nl, nl);
+  return {nl, h.block(0, 1, 1, nl), Eigen::LDLT<Eigen::MatrixXd>(hll)};
+}
+
+/// Implicit differentiation of ∂ψ/∂E_l = 0: dE_l/dk = −H_ll⁻¹ ∂²ψ/∂E_l∂k, then
+/// dS_xx/dk = ∂²ψ/∂E_xx∂k + H_xl dE_l/dk, and F = W τ λ S_xx gives
+/// dF/dk = W τ λ dS_xx/dk (+ W λ S_xx in the thickness column).
+void add_parameter_derivatives(const MaterialLaw& law, const StripFrameLaw& psi, const LateralBlock& lateral,
+                               double width_m, UniformStrainPoint* p) {
+  const double tau = law.parameters().thickness_m;
+  StrainParameterMatrix mixed_e;
+  law.parameter_derivatives(psi.t * p->strain, nullptr, &mixed_e);
+  const Eigen::MatrixXd mixed = psi.t.transpose() * mixed_e;  // 3 × n, strip frame
+  const Eigen::MatrixXd dlateral = -lateral.factor.solve(mixed.middleRows(1, lateral.size));
+  const Eigen::RowVectorXd dstress = mixed.row(0) + lateral.hxl * dlateral;
+  p->dforce_dk = width_m * tau * p->stretch * dstress.transpose();
+  p->dforce_dk[FlatLayout::kThickness] += width_m * p->stretch * p->stress_xx_Pa;
+  p->dlateral_strain_dk = dlateral.row(0).transpose() / (1.0 + p->lateral_strain);
+}
+
 }  // namespace
 
 UniformStrainPoint uniform_strain_tension(const MaterialLaw& law, const UniformStrainStrip& strip,
@@ -170,112 +285,39 @@ UniformStrainPoint uniform_strain_tension(const MaterialLaw& law, const UniformS
   UniformStrainPoint p;
   p.extension_mm = extension_mm;
   p.stretch = 1.0 + extension_mm / strip.gauge_length_mm;
-  const double exx = 0.5 * (p.stretch * p.stretch - 1.0);
   const bool free_shear = strip.shear == UniformStrainShear::Free;
 
   StripFrameLaw psi{law, strip_to_material_strain(strip.angle_deg)};
+  LateralEquilibrium equilibrium(psi, 0.5 * (p.stretch * p.stretch - 1.0));
+  const std::optional<Vector3> strain = equilibrium.solve(lateral_guess, free_shear, &p.message);
+  p.lateral_iterations = psi.evaluations;
+  if (!strain) return p;
+  p.strain = *strain;
+
   Vector3 g;
   Matrix3 h;
-  // Round-off scale of g_l = Σ_i T_il ∂ψ/∂e_i: the sum of the magnitudes of its terms, where
-  // ∂ψ/∂e1 = F1' + a12 e2 and ∂ψ/∂e2 = F3' + a12 e1 (material_law.hpp) count as two terms each.
-  const double a12 = law.parameters().a12_Pa;
-  // Evaluated at the strain of psi's last call.
-  auto noise_scale = [&](int l) {
-    const Vector3& e = psi.e;
-    const Vector3& ge = psi.ge;
-    const Vector3 terms(std::abs(ge[0] - a12 * e[1]) + std::abs(a12 * e[1]),
-                        std::abs(ge[1] - a12 * e[0]) + std::abs(a12 * e[0]), std::abs(ge[2]));
-    return psi.t.col(l).cwiseAbs().dot(terms);
-  };
-  // Inner solve: ∂ψ/∂E_yy = 0 at fixed (E_xx, E_xy). E_yy > −½ keeps the lateral stretch
-  // √(1 + 2E_yy) real.
-  double eyy = lateral_guess[0];
-  bool inner_ok = true;
-  auto solve_eyy = [&](double exy) {
-    const ScalarRoot r = safeguarded_newton(
-        [&](double y) {
-          psi(Vector3(exx, y, exy), &g, &h);
-          return Residual{g[1], h(1, 1), noise_scale(1)};
-        },
-        eyy, -0.5);
-    if (!r.converged) {
-      inner_ok = false;
-      p.message = "E_yy: " + r.message;
-      return std::numeric_limits<double>::quiet_NaN();
-    }
-    eyy = r.x;
-    return eyy;
-  };
-
-  double exy = 0;
-  if (free_shear) {
-    // Outer solve: ∂ψ/∂E_xy = 0 along the inner solution E_yy*(E_xy). Its derivative is the
-    // Schur complement H_ss − H_sy²/H_yy (dE_yy*/dE_xy = −H_ys/H_yy). Its round-off includes
-    // the inner solution's: δE_yy ≈ 4ε·scale_y/H_yy moves it by H_sy δE_yy.
-    const ScalarRoot r = safeguarded_newton(
-        [&](double s) {
-          if (std::isnan(solve_eyy(s)))
-            return Residual{std::numeric_limits<double>::quiet_NaN(), 0, 0};
-          psi(Vector3(exx, eyy, s), &g, &h);
-          return Residual{g[2], h(2, 2) - h(1, 2) * h(1, 2) / h(1, 1),
-                          noise_scale(2) + std::abs(h(1, 2) / h(1, 1)) * noise_scale(1)};
-        },
-        lateral_guess[1], -std::numeric_limits<double>::infinity());
-    if (!r.converged) {
-      if (inner_ok) p.message = "E_xy: " + r.message;
-      p.lateral_iterations = psi.evaluations;
-      return p;
-    }
-    exy = r.x;
-  }
-  // The converged E_yy belongs to the last inner solve, which ran at the final E_xy only if the
-  // outer solve's last evaluation was there: solve once more at the final E_xy (one evaluation
-  // when it already is).
-  if (std::isnan(solve_eyy(exy))) {
-    p.lateral_iterations = psi.evaluations;
-    return p;
-  }
-  p.lateral_iterations = psi.evaluations;
-  p.strain = Vector3(exx, eyy, exy);
-
-  const MaterialParameters& k = law.parameters();
   const double psi_value = psi(p.strain, &g, &h);
   const double width_m = 1e-3 * strip.width_mm, length_m = 1e-3 * strip.gauge_length_mm;
-  const double tau = k.thickness_m;
+  const double tau = law.parameters().thickness_m;
   p.stress_xx_Pa = g[0];
   // Clamp force from the first Piola–Kirchhoff stress P = F S on the clamp face (reference
   // normal x̂, area W τ): F_def = [[λ, a], [0, μ]] keeps the axis along x, so
   // (P x̂)_x = λ S_xx + a S_xy = λ S_xx (S_xy = 0 when shear is free; a = 0 when held).
   p.force_N = width_m * tau * p.stretch * p.stress_xx_Pa;
-  p.lateral_strain = std::sqrt(1.0 + 2.0 * eyy) - 1.0;
+  p.lateral_strain = std::sqrt(1.0 + 2.0 * p.strain[1]) - 1.0;
   p.energy_J = width_m * length_m * tau * psi_value;
 
-  // Free block l = {E_yy} or {E_yy, E_xy}; reduced axial stiffness K = H_xx − H_xl H_ll⁻¹ H_lx.
-  const int nl = free_shear ? 2 : 1;
-  const Eigen::MatrixXd hll = h.block(1, 1, nl, nl);
-  const Eigen::RowVectorXd hxl = h.block(0, 1, 1, nl);
-  const Eigen::LDLT<Eigen::MatrixXd> lateral(hll);
-  if (lateral.info() != Eigen::Success || !(lateral.vectorD().minCoeff() > 0)) {
+  // Reduced axial stiffness K = H_xx − H_xl H_ll⁻¹ H_lx.
+  const LateralBlock lateral = lateral_block(h, free_shear);
+  if (!lateral.positive_definite()) {
     p.message = "lateral stiffness ∂²ψ/∂E_lat² is not positive definite (unstable state)";
     return p;
   }
-  const double reduced = h(0, 0) - (hxl * lateral.solve(hxl.transpose()))(0, 0);
+  const double reduced = h(0, 0) - (lateral.hxl * lateral.factor.solve(lateral.hxl.transpose()))(0, 0);
   p.dforce_dextension_N_per_mm =
       width_m * tau * (p.stress_xx_Pa + p.stretch * p.stretch * reduced) / strip.gauge_length_mm;
   p.converged = true;
-
-  if (!want_parameter_derivatives) return p;
-  // Implicit differentiation of ∂ψ/∂E_l = 0: dE_l/dk = −H_ll⁻¹ ∂²ψ/∂E_l∂k, then
-  // dS_xx/dk = ∂²ψ/∂E_xx∂k + H_xl dE_l/dk, and F = W τ λ S_xx gives
-  // dF/dk = W τ λ dS_xx/dk (+ W λ S_xx in the thickness column).
-  StrainParameterMatrix mixed_e;
-  law.parameter_derivatives(psi.t * p.strain, nullptr, &mixed_e);
-  const Eigen::MatrixXd mixed = psi.t.transpose() * mixed_e;  // 3 × n, strip frame
-  const Eigen::MatrixXd dlateral = -lateral.solve(mixed.middleRows(1, nl));
-  const Eigen::RowVectorXd dstress = mixed.row(0) + hxl * dlateral;
-  p.dforce_dk = width_m * tau * p.stretch * dstress.transpose();
-  p.dforce_dk[FlatLayout::kThickness] += width_m * p.stretch * p.stress_xx_Pa;
-  p.dlateral_strain_dk = dlateral.row(0).transpose() / (1.0 + p.lateral_strain);
+  if (want_parameter_derivatives) add_parameter_derivatives(law, psi, lateral, width_m, &p);
   return p;
 }
 
