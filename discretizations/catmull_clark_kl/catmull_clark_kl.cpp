@@ -111,6 +111,13 @@ struct CatmullClarkKL::Mesh {
   ElementSchedule colours;    // greedy colouring: faces of one colour share no node
   ParallelRunner runner;
 
+  // The constructor's build steps, in the order it runs them.
+  std::vector<double> set_gauss_rule(int points_per_direction);
+  int shared_table(const std::vector<BasisTable>& tables);
+  void add_face(const LimitSurfaceBasis& basis, int face, const Eigen::VectorXd& rest,
+                const std::vector<double>& gauss_weight, const Eigen::Vector3d& d1, const Eigen::Vector3d& d2);
+  void finish(int num_nodes);
+
   std::size_t bytes() const {
     std::size_t total = gauss_uv.capacity() * sizeof(Eigen::Vector2d) +
                         basis_tables.capacity() * sizeof(BasisTable) +
@@ -124,6 +131,74 @@ struct CatmullClarkKL::Mesh {
   }
 };
 
+// The tensor Gauss rule on a face's (u, v) ∈ [0, 1]²: the points into gauss_uv, their weights
+// (summing to 1) returned.
+std::vector<double> CatmullClarkKL::Mesh::set_gauss_rule(int points_per_direction) {
+  const GaussLegendreRule face_rule = GaussLegendreRule::make(points_per_direction);
+  const int ng = face_rule.size();
+  points_per_face = ng * ng;
+  std::vector<double> gauss_weight;
+  for (int b = 0; b < ng; ++b)
+    for (int a = 0; a < ng; ++a) {
+      gauss_uv.emplace_back(0.5 * (1.0 + face_rule.nodes[static_cast<size_t>(a)]),
+                            0.5 * (1.0 + face_rule.nodes[static_cast<size_t>(b)]));
+      gauss_weight.push_back(0.25 * face_rule.weights[static_cast<size_t>(a)] *
+                             face_rule.weights[static_cast<size_t>(b)]);
+    }
+  return gauss_weight;
+}
+
+// The index of a face's basis tables (one per Gauss point) in basis_tables, added when new:
+// faces of the same boundary type have bitwise identical tables, stored once.
+int CatmullClarkKL::Mesh::shared_table(const std::vector<BasisTable>& tables) {
+  const auto npf = static_cast<size_t>(points_per_face);
+  for (std::size_t t = 0; t * npf < basis_tables.size(); ++t) {
+    bool same = true;
+    for (size_t p = 0; p < npf && same; ++p) same = basis_tables[t * npf + p] == tables[p];
+    if (same) return static_cast<int>(t);
+  }
+  basis_tables.insert(basis_tables.end(), tables.begin(), tables.end());
+  return static_cast<int>(basis_tables.size() / npf) - 1;
+}
+
+// One face: its control points, basis tables, reference points (and their share of each
+// node's area) and affine parametrisation.
+void CatmullClarkKL::Mesh::add_face(const LimitSurfaceBasis& surface, int face, const Eigen::VectorXd& rest,
+                                    const std::vector<double>& gauss_weight, const Eigen::Vector3d& d1,
+                                    const Eigen::Vector3d& d2) {
+  const int npf = points_per_face;
+  std::vector<BasisTable> tables(static_cast<size_t>(npf));
+  PatchBasis basis;
+  for (int p = 0; p < npf; ++p) {
+    basis = surface.evaluate(face, gauss_uv[static_cast<size_t>(p)].x(), gauss_uv[static_cast<size_t>(p)].y());
+    tables[static_cast<size_t>(p)] = basis.weights;
+  }
+  face_nodes.add(basis.nodes);
+  face_table[static_cast<size_t>(face)] = shared_table(tables);
+
+  FaceCoordinates X;
+  for (int k = 0; k < 16; ++k) X.row(k) = rest.segment<3>(3 * basis.nodes[static_cast<size_t>(k)]).transpose();
+  for (int p = 0; p < npf; ++p) {
+    const BasisTable& W = tables[static_cast<size_t>(p)];
+    ReferencePoint& ref = reference[static_cast<size_t>(face * npf + p)];
+    ref = make_reference_point(jet_of(W, X), gauss_weight[static_cast<size_t>(p)], d1, d2);
+    for (int k = 0; k < 16; ++k) node_area[basis.nodes[static_cast<size_t>(k)]] += ref.weight_area * W(0, k);
+  }
+  Eigen::Matrix<double, 2, 3>& affine = face_affine[static_cast<size_t>(face)];
+  const Eigen::Vector3d origin = (surface.evaluate(face, 0, 0).weights.row(0) * X).transpose();
+  affine.col(0) = origin.head<2>();
+  affine.col(1) = (surface.evaluate(face, 1, 0).weights.row(0) * X).transpose().head<2>() - origin.head<2>();
+  affine.col(2) = (surface.evaluate(face, 0, 1).weights.row(0) * X).transpose().head<2>() - origin.head<2>();
+}
+
+// The jet bases, and the Hessian pattern: nodes i, j are coupled when some face's patch uses
+// both; the colouring of faces that share no node.
+void CatmullClarkKL::Mesh::finish(int num_nodes) {
+  for (const BasisTable& table : basis_tables) jet_basis.emplace_back(table.bottomRows<5>().transpose());
+  pattern = HessianPattern(num_nodes, face_nodes);
+  colours = ElementSchedule::colouring(face_nodes, num_nodes);
+}
+
 CatmullClarkKL::CatmullClarkKL(const StripSpec& strip, const MaterialParameters& parameters,
                                const CatmullClarkKLOptions& options)
     : strip_(strip), options_(options), law_(parameters) {
@@ -134,12 +209,10 @@ CatmullClarkKL::CatmullClarkKL(const StripSpec& strip, const MaterialParameters&
   basis_ = std::make_unique<LimitSurfaceBasis>(strip.cells_along, strip.cells_across);
 
   const int nx = strip.cells_along, ny = strip.cells_across;
-  const int num_faces_total = basis_->num_faces();
   rest_.resize(3 * basis_->num_nodes());
   for (int j = 0; j <= ny; ++j)
     for (int i = 0; i <= nx; ++i)
-      rest_.segment<3>(3 * basis_->node_index(i, j))
-          << strip.length_m * i / nx,
+      rest_.segment<3>(3 * basis_->node_index(i, j)) << strip.length_m * i / nx,
           -0.5 * strip.width_m + strip.width_m * j / ny, 0.0;
 
   // Material frame (core/discretization.hpp): d2 = weft at θ from the strip axis, d1 = warp.
@@ -148,73 +221,14 @@ CatmullClarkKL::CatmullClarkKL(const StripSpec& strip, const MaterialParameters&
   const Eigen::Vector3d d1(-std::sin(theta), std::cos(theta), 0.0);
 
   auto mesh = std::make_unique<Mesh>(options.threads);
-  const GaussLegendreRule face_rule = GaussLegendreRule::make(options.gauss_points_per_direction);
-  const int ng = face_rule.size();
-  mesh->points_per_face = ng * ng;
-  std::vector<double> gauss_weight;
-  for (int b = 0; b < ng; ++b)
-    for (int a = 0; a < ng; ++a) {
-      mesh->gauss_uv.emplace_back(0.5 * (1.0 + face_rule.nodes[static_cast<size_t>(a)]),
-                                  0.5 * (1.0 + face_rule.nodes[static_cast<size_t>(b)]));
-      gauss_weight.push_back(0.25 * face_rule.weights[static_cast<size_t>(a)] *
-                             face_rule.weights[static_cast<size_t>(b)]);
-    }
-
-  const int npf = mesh->points_per_face;
-  mesh->face_table.resize(static_cast<size_t>(num_faces_total));
-  mesh->reference.resize(static_cast<size_t>(num_faces_total * npf));
-  mesh->face_affine.resize(static_cast<size_t>(num_faces_total));
+  const std::vector<double> gauss_weight = mesh->set_gauss_rule(options.gauss_points_per_direction);
+  const auto num_faces = static_cast<size_t>(basis_->num_faces());
+  mesh->face_table.resize(num_faces);
+  mesh->reference.resize(num_faces * static_cast<size_t>(mesh->points_per_face));
+  mesh->face_affine.resize(num_faces);
   mesh->node_area = Eigen::VectorXd::Zero(basis_->num_nodes());
-  std::vector<BasisTable> tables(static_cast<size_t>(npf));
-  for (int face = 0; face < num_faces_total; ++face) {
-    PatchBasis basis;
-    for (int p = 0; p < npf; ++p) {
-      basis = basis_->evaluate(face, mesh->gauss_uv[static_cast<size_t>(p)].x(),
-                               mesh->gauss_uv[static_cast<size_t>(p)].y());
-      tables[static_cast<size_t>(p)] = basis.weights;
-    }
-    mesh->face_nodes.add(basis.nodes);
-    // Faces of the same boundary type have bitwise identical tables: store each once.
-    int table = -1;
-    for (std::size_t t = 0; t * static_cast<size_t>(npf) < mesh->basis_tables.size() && table < 0;
-         ++t) {
-      bool same = true;
-      for (int p = 0; p < npf && same; ++p)
-        same = mesh->basis_tables[t * static_cast<size_t>(npf) + static_cast<size_t>(p)] ==
-               tables[static_cast<size_t>(p)];
-      if (same) table = static_cast<int>(t);
-    }
-    if (table < 0) {
-      table = static_cast<int>(mesh->basis_tables.size() / static_cast<size_t>(npf));
-      mesh->basis_tables.insert(mesh->basis_tables.end(), tables.begin(), tables.end());
-    }
-    mesh->face_table[static_cast<size_t>(face)] = table;
-
-    FaceCoordinates X;
-    for (int k = 0; k < 16; ++k)
-      X.row(k) = rest_.segment<3>(3 * basis.nodes[static_cast<size_t>(k)]).transpose();
-    for (int p = 0; p < npf; ++p) {
-      const BasisTable& W = tables[static_cast<size_t>(p)];
-      ReferencePoint& ref = mesh->reference[static_cast<size_t>(face * npf + p)];
-      ref = make_reference_point(jet_of(W, X), gauss_weight[static_cast<size_t>(p)], d1, d2);
-      for (int k = 0; k < 16; ++k)
-        mesh->node_area[basis.nodes[static_cast<size_t>(k)]] += ref.weight_area * W(0, k);
-    }
-    Eigen::Matrix<double, 2, 3>& affine = mesh->face_affine[static_cast<size_t>(face)];
-    const Eigen::Vector3d origin = (basis_->evaluate(face, 0, 0).weights.row(0) * X).transpose();
-    affine.col(0) = origin.head<2>();
-    affine.col(1) = (basis_->evaluate(face, 1, 0).weights.row(0) * X).transpose().head<2>() -
-                    origin.head<2>();
-    affine.col(2) = (basis_->evaluate(face, 0, 1).weights.row(0) * X).transpose().head<2>() -
-                    origin.head<2>();
-  }
-
-  for (const BasisTable& table : mesh->basis_tables)
-    mesh->jet_basis.emplace_back(table.bottomRows<5>().transpose());
-
-  // Hessian pattern: nodes i, j are coupled when some face's patch uses both.
-  mesh->pattern = HessianPattern(basis_->num_nodes(), mesh->face_nodes);
-  mesh->colours = ElementSchedule::colouring(mesh->face_nodes, basis_->num_nodes());
+  for (int face = 0; face < basis_->num_faces(); ++face) mesh->add_face(*basis_, face, rest_, gauss_weight, d1, d2);
+  mesh->finish(basis_->num_nodes());
   mesh_ = std::move(mesh);
 }
 
