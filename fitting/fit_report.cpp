@@ -95,90 +95,99 @@ json effect_curves_json(const std::vector<FitEffectCurve>& curves) {
 
 namespace {
 
+json nullable(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }  // json has no NaN
+
+// Parameters as numbers (the YAML file is the contract; this is for tools).
+json parameters_json(const MaterialParameters& k) {
+  json p;
+  p["density_kg_m2"] = k.density_kg_m2;
+  p["thickness_m"] = k.thickness_m;
+  p["a11_Pa"] = k.a11_Pa;
+  p["a12_Pa"] = k.a12_Pa;
+  p["a22_Pa"] = k.a22_Pa;
+  p["G12_Pa"] = k.G12_Pa;
+  for (const auto& [name, c] : {std::pair{"eta1", &k.eta1}, std::pair{"eta3", &k.eta3}, std::pair{"eta4", &k.eta4}})
+    p[name] = {{"mu", c->mu}, {"alpha", c->alpha}};
+  if (k.eta2 != Curve::linear())  // as params.yaml: absent is the paper's η2(x) = x
+    p["eta2"] = {{"mu", k.eta2.mu}, {"alpha", k.eta2.alpha}};
+  auto opt = [](const std::optional<double>& v) { return v ? json(*v) : json(nullptr); };
+  p["cutoffs"] = {{"E11_min", opt(k.cutoffs.E11_min)}, {"E11_max", opt(k.cutoffs.E11_max)},
+                  {"E22_min", opt(k.cutoffs.E22_min)}, {"E22_max", opt(k.cutoffs.E22_max)},
+                  {"E12_max", opt(k.cutoffs.E12_max)}};
+  p["membrane_N_per_m"] = {{"tau_a11", k.thickness_m * k.a11_Pa},
+                           {"tau_a22", k.thickness_m * k.a22_Pa},
+                           {"tau_G12", k.thickness_m * k.G12_Pa}};
+  return p;
+}
+
+json stage_json(const FitStageRecord& s) {
+  return {{"stage", s.stage}, {"resolution", s.resolution}, {"degree", s.degree},
+          {"avg_rel_error", s.avg_rel_error}, {"optimizer", s.optimizer},
+          {"status", s.status}, {"message", s.message}, {"iterations", s.iterations},
+          {"evaluations", s.evaluations}, {"equilibrium_solves", s.equilibrium_solves},
+          {"wall_time_s", s.wall_time_s}};
+}
+
+json refinement_json(const FitRefinement& f) {
+  json changes = json::array();
+  for (const auto& c : f.changes)
+    changes.push_back({{"name", c.name}, {"from", c.from}, {"to", c.to}, {"relative_change", c.relative}});
+  return {{"stage", f.stage}, {"from_resolution", f.from_resolution},
+          {"to_resolution", f.to_resolution}, {"response_change", f.response_change},
+          {"response_strain", f.response_strain},
+          {"decision", f.decision}, {"changes", changes}};
+}
+
+json effect_json(const FitEffect& e) {
+  json parameters = json::array();
+  for (const FitEffectParameter& q : e.parameters)
+    parameters.push_back({{"name", q.name}, {"unit", q.unit}, {"value", q.value}, {"lower", q.lower},
+                          {"upper", q.upper}});
+  json tests = json::array();
+  for (const FitEffectTest& t : e.tests)
+    tests.push_back({{"test", t.test}, {"runs", t.runs}, {"error_without", t.error_without},
+                     {"error_with", t.error_with}, {"noise_floor", nullable(t.noise_floor)}});
+  return {{"effect", e.effect}, {"resolution", e.resolution}, {"runs", e.runs},
+          {"points", e.points}, {"error_without", e.error_without},
+          {"error_with", e.error_with},
+          {"score", nullable(e.score)},  // null where not evaluated
+          {"score_dof", e.score_dof}, {"score_p_value_iid", e.score_p_value_iid},
+          {"score_p_value", e.score_p_value},
+          {"score_noise_correlation", e.score_noise_correlation},
+          {"parameters", parameters}, {"tests", tests}, {"curves", effect_curves_json(e.curves)}};
+}
+
+// A json array of `to_json(item)` for every item.
+template <class Items, class ToJson>
+json array_of(const Items& items, ToJson&& to_json) {
+  json out = json::array();
+  for (const auto& item : items) out.push_back(to_json(item));
+  return out;
+}
+
 json report_json(const FitReport& r, const Options& config) {
   json j;
   j["dataset"] = r.dataset;
   j["dataset_folder"] = r.folder;
   j["config"] = options_to_json(config);
-  // Parameters as numbers (the YAML file is the contract; this is for tools).
-  json p;
-  p["density_kg_m2"] = r.parameters.density_kg_m2;
-  p["thickness_m"] = r.parameters.thickness_m;
-  p["a11_Pa"] = r.parameters.a11_Pa;
-  p["a12_Pa"] = r.parameters.a12_Pa;
-  p["a22_Pa"] = r.parameters.a22_Pa;
-  p["G12_Pa"] = r.parameters.G12_Pa;
-  for (const auto& [name, c] : {std::pair{"eta1", &r.parameters.eta1}, std::pair{"eta3", &r.parameters.eta3},
-                                std::pair{"eta4", &r.parameters.eta4}})
-    p[name] = {{"mu", c->mu}, {"alpha", c->alpha}};
-  if (r.parameters.eta2 != Curve::linear())  // as params.yaml: absent is the paper's η2(x) = x
-    p["eta2"] = {{"mu", r.parameters.eta2.mu}, {"alpha", r.parameters.eta2.alpha}};
-  auto opt = [](const std::optional<double>& v) { return v ? json(*v) : json(nullptr); };
-  p["cutoffs"] = {{"E11_min", opt(r.parameters.cutoffs.E11_min)}, {"E11_max", opt(r.parameters.cutoffs.E11_max)},
-                  {"E22_min", opt(r.parameters.cutoffs.E22_min)}, {"E22_max", opt(r.parameters.cutoffs.E22_max)},
-                  {"E12_max", opt(r.parameters.cutoffs.E12_max)}};
-  p["membrane_N_per_m"] = {{"tau_a11", r.parameters.thickness_m * r.parameters.a11_Pa},
-                           {"tau_a22", r.parameters.thickness_m * r.parameters.a22_Pa},
-                           {"tau_G12", r.parameters.thickness_m * r.parameters.G12_Pa}};
-  j["parameters"] = p;
-  j["initial_guess"] = json::array();
-  for (const auto& g : r.initial_guess)
-    j["initial_guess"].push_back({{"label", g.label},
-                                  {"avg_rel_error_uniform", g.avg_rel_error_uniform},
-                                  {"avg_rel_difference_full", g.avg_rel_difference_full}});
-  j["stages"] = json::array();
-  for (const auto& s : r.stages)
-    j["stages"].push_back({{"stage", s.stage}, {"resolution", s.resolution}, {"degree", s.degree},
-                           {"avg_rel_error", s.avg_rel_error}, {"optimizer", s.optimizer},
-                           {"status", s.status}, {"message", s.message}, {"iterations", s.iterations},
-                           {"evaluations", s.evaluations}, {"equilibrium_solves", s.equilibrium_solves},
-                           {"wall_time_s", s.wall_time_s}});
+  j["parameters"] = parameters_json(r.parameters);
+  j["initial_guess"] = array_of(r.initial_guess, [](const auto& g) -> json {
+    return {{"label", g.label}, {"avg_rel_error_uniform", g.avg_rel_error_uniform},
+            {"avg_rel_difference_full", g.avg_rel_difference_full}};
+  });
+  j["stages"] = array_of(r.stages, stage_json);
   j["curve_degrees"] = json::object();
   for (const auto& [stage, degree] : r.curve_degrees) j["curve_degrees"][stage] = degree;
-  j["refinement"] = json::array();
-  for (const auto& f : r.refinement) {
-    json changes = json::array();
-    for (const auto& c : f.changes)
-      changes.push_back({{"name", c.name}, {"from", c.from}, {"to", c.to}, {"relative_change", c.relative}});
-    j["refinement"].push_back({{"stage", f.stage}, {"from_resolution", f.from_resolution},
-                               {"to_resolution", f.to_resolution}, {"response_change", f.response_change},
-                               {"response_strain", f.response_strain},
-                               {"decision", f.decision}, {"changes", changes}});
-  }
+  j["refinement"] = array_of(r.refinement, refinement_json);
   j["finest_resolution"] = r.finest_resolution;
-  j["fit"] = json::array();
-  for (const auto& c : r.fit) j["fit"].push_back(curve_json(c));
-  j["bend"] = json::array();
-  for (const auto& b : r.bend)
-    j["bend"].push_back({{"label", b.label}, {"angle_deg", b.angle_deg},
-                         {"measured_overhang_mm", b.measured_overhang_mm},
-                         {"chord_angle_deg", b.chord_angle_deg},
-                         {"overhang_mm", b.overhang_mm}});
-  j["validation"] = json::array();
-  for (const auto& c : r.validation) j["validation"].push_back(curve_json(c));
-  j["validation_strain_range"] = json::array();
-  for (const auto& v : r.validation_strain) j["validation_strain_range"].push_back(strain_range_json(v));
-  j["effects"] = json::array();
-  for (const FitEffect& e : r.effects) {
-    json parameters = json::array();
-    for (const FitEffectParameter& q : e.parameters)
-      parameters.push_back({{"name", q.name}, {"unit", q.unit}, {"value", q.value}, {"lower", q.lower},
-                            {"upper", q.upper}});
-    json tests = json::array();
-    for (const FitEffectTest& t : e.tests)
-      tests.push_back({{"test", t.test}, {"runs", t.runs}, {"error_without", t.error_without},
-                       {"error_with", t.error_with},
-                       {"noise_floor", std::isfinite(t.noise_floor) ? json(t.noise_floor) : json(nullptr)}});
-    j["effects"].push_back({{"effect", e.effect}, {"resolution", e.resolution}, {"runs", e.runs},
-                            {"points", e.points}, {"error_without", e.error_without},
-                            {"error_with", e.error_with},
-                            // null where not evaluated (json has no NaN)
-                            {"score", std::isfinite(e.score) ? json(e.score) : json(nullptr)},
-                            {"score_dof", e.score_dof}, {"score_p_value_iid", e.score_p_value_iid},
-                            {"score_p_value", e.score_p_value},
-                            {"score_noise_correlation", e.score_noise_correlation},
-                            {"parameters", parameters}, {"tests", tests}, {"curves", effect_curves_json(e.curves)}});
-  }
+  j["fit"] = array_of(r.fit, curve_json);
+  j["bend"] = array_of(r.bend, [](const auto& b) -> json {
+    return {{"label", b.label}, {"angle_deg", b.angle_deg}, {"measured_overhang_mm", b.measured_overhang_mm},
+            {"chord_angle_deg", b.chord_angle_deg}, {"overhang_mm", b.overhang_mm}};
+  });
+  j["validation"] = array_of(r.validation, curve_json);
+  j["validation_strain_range"] = array_of(r.validation_strain, strain_range_json);
+  j["effects"] = array_of(r.effects, effect_json);
   json timing = json::object();
   for (const auto& [k, v] : r.timing_s) timing[k] = v;
   j["timing_s"] = timing;
