@@ -274,6 +274,21 @@ struct TriangleShell::Impl {
   /// value array).
   void shape_operator_pass(const Eigen::VectorXd& q, std::vector<double>* face_energy,
                            Eigen::VectorXd* gradient, double* hessian_values) const;
+  /// The shape operator's pass, step by step: every face's W_T into face_energy and, with
+  /// `derivatives`, ∂W_T/∂φ in the flat per-(face, source) array (returned); an angle's
+  /// gradient (w = ∂Ψ/∂θ_a) and Hessian blocks; a face stencil's Hessian block.
+  std::vector<double> face_energies(const std::vector<double>& theta, std::vector<double>* face_energy,
+                                    bool derivatives) const;
+  void scatter_angle(const Eigen::VectorXd& q, int a, double w, const Vector12& dtheta, double* gradient,
+                     double* hessian_values) const;
+  struct FaceHessianScratch {
+    ScratchMatrix Y, SY, H;
+  };
+  void scatter_face_hessian(int f, const std::vector<Vector12>& dtheta, double* hessian_values,
+                            FaceHessianScratch& scratch) const;
+  /// Shape-operator bending's columns of ∂(∂Ψ/∂q)/∂p for the bending parameters p, added to B.
+  void shape_operator_parameter_columns(const Eigen::VectorXd& q, const MaterialParameters& bending,
+                                        Eigen::MatrixXd* B) const;
   int num_hinges() const { return static_cast<int>(tri.hinges.size()); }
   /// Element ids: triangles, then hinges, then clamp hinges.
   int num_elements() const {
@@ -715,17 +730,42 @@ void TriangleShell::Impl::shape_operator_pass(const Eigen::VectorXd& q,
                                               std::vector<double>* face_energy,
                                               Eigen::VectorXd* gradient,
                                               double* hessian_values) const {
-  const int na = num_angles();
-  const auto& faces = shape->faces();
-  const int nf = static_cast<int>(faces.size());
   const bool derivatives = gradient || hessian_values;
-  const auto au = static_cast<size_t>(na);
   // 1. Every angle once: θ and ∇θ (the faces use them). ∇²θ is computed in step 4 where it is
   //    used, once per angle: storing it for every angle cost 1152 bytes an angle per call.
   std::vector<double> theta;
   std::vector<Vector12> dtheta;
   all_angles(q, &theta, derivatives ? &dtheta : nullptr);
-  // 2. Faces: s_m = E φ, W_T = s_mᵀ S s_m, ∂W_T/∂φ = 2 Eᵀ S s_m (φ = −θ).
+  // 2. Faces: W_T and ∂W_T/∂φ.
+  const std::vector<double> dW = face_energies(theta, face_energy, derivatives);
+  if (!derivatives) return;
+  // 3. ∂Ψ/∂φ_a, summed over the angle's faces in a fixed order.
+  std::vector<double> lambda(static_cast<size_t>(num_angles()), 0.0);
+  for_each_index(num_angles(), [&](int a) {
+    double sum = 0.0;
+    for (int i : angle_users[static_cast<size_t>(a)]) sum += dW[static_cast<size_t>(i)];
+    lambda[static_cast<size_t>(a)] = sum;
+  });
+  // 4. Assembly. Gradient Σ_a λ_a ∂φ_a/∂q; Hessian Σ_a λ_a ∂²φ_a/∂q² (on the hinge's blocks)
+  //    + Σ_T 2 (E ∂φ/∂q)ᵀ S (E ∂φ/∂q) (on the face stencil's blocks). A range of elements
+  //    reuses one set of scratch matrices.
+  runner.run(bending_schedule, [&](std::span<const int> ids) {
+    FaceHessianScratch scratch;
+    for (const int id : ids) {
+      if (id < num_angles())
+        scatter_angle(q, id, -lambda[static_cast<size_t>(id)], dtheta[static_cast<size_t>(id)],
+                      gradient ? gradient->data() : nullptr, hessian_values);
+      else if (hessian_values)
+        scatter_face_hessian(id - num_angles(), dtheta, hessian_values, scratch);
+    }
+  });
+}
+
+std::vector<double> TriangleShell::Impl::face_energies(const std::vector<double>& theta,
+                                                       std::vector<double>* face_energy, bool derivatives) const {
+  // s_m = E φ, W_T = s_mᵀ S s_m, ∂W_T/∂φ = 2 Eᵀ S s_m (φ = −θ), the last into the flat array.
+  const auto& faces = shape->faces();
+  const int nf = static_cast<int>(faces.size());
   face_energy->assign(static_cast<size_t>(nf), 0.0);
   std::vector<double> dW(derivatives ? num_face_sources() : 0, 0.0);
   runner.for_each_range(nf, kGrain, kParallelMinimum, [&](int begin, int end) {
@@ -745,57 +785,86 @@ void TriangleShell::Impl::shape_operator_pass(const Eigen::VectorXd& q,
         dW[static_cast<size_t>(face_source_start[fu]) + j] = d[static_cast<Eigen::Index>(j)];
     }
   });
-  if (!derivatives) return;
-  // 3. ∂Ψ/∂φ_a, summed over the angle's faces in a fixed order.
-  std::vector<double> lambda(au, 0.0);
-  for_each_index(na, [&](int a) {
-    double sum = 0.0;
-    for (int i : angle_users[static_cast<size_t>(a)]) sum += dW[static_cast<size_t>(i)];
-    lambda[static_cast<size_t>(a)] = sum;
-  });
-  // 4. Assembly. Gradient Σ_a λ_a ∂φ_a/∂q; Hessian Σ_a λ_a ∂²φ_a/∂q² (on the hinge's blocks)
-  //    + Σ_T 2 (E ∂φ/∂q)ᵀ S (E ∂φ/∂q) (on the face stencil's blocks). A range of elements
-  //    reuses one set of scratch matrices.
-  const int first_angle = num_faces();  // pattern element of angle 0 (element ids above)
-  double* const g = gradient ? gradient->data() : nullptr;
-  runner.run(bending_schedule, [&](std::span<const int> ids) {
-    ScratchMatrix Y_storage, SY_storage, H_storage;
-    for (const int id : ids) {
-      if (id < na) {
-        const auto u = static_cast<size_t>(id);
-        const double w = -lambda[u];  // ∂φ/∂q = −∂θ/∂q
-        const std::span<const int> v = elements[first_angle + id];  // 4, or a clamp hinge's 3
-        if (gradient) scatter_nodal(g, v, [&](int i, int c) { return w * dtheta[u][3 * i + c]; });
-        if (!hessian_values) continue;
-        Vector12 unused;
-        Matrix12 d2theta;
-        angle(q, id, &unused, &d2theta);
-        scatter_hessian(hessian_values, pattern.slots(first_angle + id), static_cast<int>(v.size()),
-                        [&](int a, int r, int b, int s) { return w * d2theta(3 * a + r, 3 * b + s); });
-        continue;
-      }
-      if (!hessian_values) continue;
-      const auto fu = static_cast<size_t>(id - na);
+  return dW;
+}
+
+void TriangleShell::Impl::scatter_angle(const Eigen::VectorXd& q, int a, double w, const Vector12& dtheta,
+                                        double* gradient, double* hessian_values) const {
+  // w = ∂Ψ/∂θ_a = −λ_a (∂φ/∂q = −∂θ/∂q).
+  const int element = num_faces() + a;  // pattern element of angle a (element ids above)
+  const std::span<const int> v = elements[element];  // 4, or a clamp hinge's 3
+  if (gradient) scatter_nodal(gradient, v, [&](int i, int c) { return w * dtheta[3 * i + c]; });
+  if (!hessian_values) return;
+  Vector12 unused;
+  Matrix12 d2theta;
+  angle(q, a, &unused, &d2theta);
+  scatter_hessian(hessian_values, pattern.slots(element), static_cast<int>(v.size()),
+                  [&](int i, int r, int j, int c) { return w * d2theta(3 * i + r, 3 * j + c); });
+}
+
+void TriangleShell::Impl::scatter_face_hessian(int f, const std::vector<Vector12>& dtheta, double* hessian_values,
+                                               FaceHessianScratch& scratch) const {
+  const auto fu = static_cast<size_t>(f);
+  const ShapeOperatorBending::Face& face = shape->faces()[fu];
+  if (face.measured.empty()) return;
+  // Y = E ∂φ/∂q on the face's stencil; its Hessian 2 Yᵀ S Y.
+  const auto n = static_cast<Eigen::Index>(stencil[fu].size());
+  auto Y = scratch.Y(static_cast<Eigen::Index>(face.measured.size()), 3 * n);
+  Y.setZero();
+  for (size_t j = 0; j < face.sources.size(); ++j) {
+    const auto a = static_cast<size_t>(face.sources[j]);
+    const std::array<int, 4>& slots = source_slots[fu][j];
+    for (int i = 0; i < 4; ++i)
+      if (slots[static_cast<size_t>(i)] >= 0)
+        Y.middleCols<3>(3 * slots[static_cast<size_t>(i)]).noalias() -=
+            face.edge_map.col(static_cast<Eigen::Index>(j)) * dtheta[a].segment<3>(3 * i).transpose();
+  }
+  auto SY = scratch.SY(Y.rows(), Y.cols());
+  SY.noalias() = shape_stiffness.form[fu] * Y;
+  auto H = scratch.H(3 * n, 3 * n);
+  H.noalias() = 2.0 * Y.transpose() * SY;
+  scatter_hessian(hessian_values, pattern.slots(stencil_element(f)), static_cast<int>(n), node_major_blocks(H));
+}
+
+void TriangleShell::Impl::shape_operator_parameter_columns(const Eigen::VectorXd& q, const MaterialParameters& bending,
+                                                           Eigen::MatrixXd* B) const {
+  // ∂(∂Ψ/∂q)/∂p = Σ_a (∂λ_a/∂p) ∂φ_a/∂q with ∂λ_a/∂p = Σ_T 2 (Eᵀ ∂S_T/∂p s_m)_a
+  // (shape_operator_bending.hpp (4): ∂S/∂p = Tᵀ ∂Q/∂p T).
+  const int na = num_angles();
+  const auto& faces = shape->faces();
+  std::vector<double> theta;
+  std::vector<Vector12> dtheta;
+  all_angles(q, &theta, &dtheta);
+  std::vector<Eigen::Matrix<double, 1, 5>> dW(num_face_sources(), Eigen::Matrix<double, 1, 5>::Zero());
+  runner.for_each_range(static_cast<int>(faces.size()), kGrain, kParallelMinimum, [&](int begin, int end) {
+    ScratchMatrix phi, rotations_storage, dSs_storage, d_storage;  // reused by the range
+    for (int f = begin; f < end; ++f) {
+      const auto fu = static_cast<size_t>(f);
       const ShapeOperatorBending::Face& face = faces[fu];
       if (face.measured.empty()) continue;
-      const auto n = static_cast<Eigen::Index>(stencil[fu].size());
-      auto Y = Y_storage(static_cast<Eigen::Index>(face.measured.size()), 3 * n);
-      Y.setZero();
-      for (size_t j = 0; j < face.sources.size(); ++j) {
-        const auto a = static_cast<size_t>(face.sources[j]);
-        const std::array<int, 4>& slots = source_slots[fu][j];
-        for (int i = 0; i < 4; ++i)
-          if (slots[static_cast<size_t>(i)] >= 0)
-            Y.middleCols<3>(3 * slots[static_cast<size_t>(i)]).noalias() -=
-                face.edge_map.col(static_cast<Eigen::Index>(j)) *
-                dtheta[a].segment<3>(3 * i).transpose();
+      const auto rotations = measured_rotations(face, theta, phi, rotations_storage);
+      const auto dS = shape->form_derivative(f, bending, shape_stiffness);
+      for (size_t p = 0; p < dS.size(); ++p) {
+        auto dSs = dSs_storage.vector(dS[p].rows());
+        dSs.noalias() = dS[p] * rotations;
+        auto d = d_storage.vector(face.edge_map.cols());
+        d.noalias() = 2.0 * face.edge_map.transpose() * dSs;
+        for (size_t j = 0; j < face.sources.size(); ++j)
+          dW[static_cast<size_t>(face_source_start[fu]) + j][static_cast<Eigen::Index>(p)] =
+              d[static_cast<Eigen::Index>(j)];
       }
-      auto SY = SY_storage(Y.rows(), Y.cols());
-      SY.noalias() = shape_stiffness.form[fu] * Y;
-      auto H = H_storage(3 * n, 3 * n);
-      H.noalias() = 2.0 * Y.transpose() * SY;
-      scatter_hessian(hessian_values, pattern.slots(stencil_element(static_cast<int>(fu))),
-                      static_cast<int>(n), node_major_blocks(H));
+    }
+  });
+  for_each_scheduled(bending_schedule, [&](int id) {
+    if (id >= na) return;
+    Eigen::Matrix<double, 1, 5> lambda = Eigen::Matrix<double, 1, 5>::Zero();
+    for (int i : angle_users[static_cast<size_t>(id)]) lambda += dW[static_cast<size_t>(i)];
+    const Vector12& dtheta_a = dtheta[static_cast<size_t>(id)];
+    for (Eigen::Index p = 0; p < kBendingParameters; ++p) {
+      const double l = lambda[p];
+      // −λ ∂θ/∂q added: the same bits as λ ∂θ/∂q subtracted.
+      scatter_nodal(B->col(p).data(), elements[num_faces() + id],
+                    [&](int i, int r) { return -(l * dtheta_a[3 * i + r]); });
     }
   });
 }
@@ -867,49 +936,7 @@ void TriangleShell::gradient_parameter_jacobian(const Eigen::VectorXd& q,
                     [&](int a, int r) { return dk * unit[3 * a + r]; });
     }
   });
-  if (m.shape) {
-    // ∂(∂Ψ/∂q)/∂p = Σ_a (∂λ_a/∂p) ∂φ_a/∂q with ∂λ_a/∂p = Σ_T 2 (Eᵀ ∂S_T/∂p s_m)_a
-    // (shape_operator_bending.hpp (4): ∂S/∂p = Tᵀ ∂Q/∂p T).
-    const int na = m.num_angles();
-    const auto& faces = m.shape->faces();
-    std::vector<double> theta;
-    std::vector<Vector12> dtheta;
-    m.all_angles(q, &theta, &dtheta);
-    std::vector<Eigen::Matrix<double, 1, 5>> dW(m.num_face_sources(),
-                                                Eigen::Matrix<double, 1, 5>::Zero());
-    m.runner.for_each_range(static_cast<int>(faces.size()), kGrain, kParallelMinimum,
-                            [&](int begin, int end) {
-      ScratchMatrix phi, rotations_storage, dSs_storage, d_storage;  // reused by the range
-      for (int f = begin; f < end; ++f) {
-        const auto fu = static_cast<size_t>(f);
-        const ShapeOperatorBending::Face& face = faces[fu];
-        if (face.measured.empty()) continue;
-        const auto rotations = measured_rotations(face, theta, phi, rotations_storage);
-        const auto dS = m.shape->form_derivative(f, bending_, m.shape_stiffness);
-        for (size_t p = 0; p < dS.size(); ++p) {
-          auto dSs = dSs_storage.vector(dS[p].rows());
-          dSs.noalias() = dS[p] * rotations;
-          auto d = d_storage.vector(face.edge_map.cols());
-          d.noalias() = 2.0 * face.edge_map.transpose() * dSs;
-          for (size_t j = 0; j < face.sources.size(); ++j)
-            dW[static_cast<size_t>(m.face_source_start[fu]) + j][static_cast<Eigen::Index>(p)] =
-                d[static_cast<Eigen::Index>(j)];
-        }
-      }
-    });
-    m.for_each_scheduled(m.bending_schedule, [&](int id) {
-      if (id >= na) return;
-      Eigen::Matrix<double, 1, 5> lambda = Eigen::Matrix<double, 1, 5>::Zero();
-      for (int i : m.angle_users[static_cast<size_t>(id)]) lambda += dW[static_cast<size_t>(i)];
-      const Vector12& dtheta_a = dtheta[static_cast<size_t>(id)];
-      for (Eigen::Index p = 0; p < kBendingParameters; ++p) {
-        const double l = lambda[p];
-        // −λ ∂θ/∂q added: the same bits as λ ∂θ/∂q subtracted.
-        scatter_nodal(B.col(p).data(), m.elements[nf + id],
-                      [&](int i, int r) { return -(l * dtheta_a[3 * i + r]); });
-      }
-    });
-  }
+  if (m.shape) m.shape_operator_parameter_columns(q, bending_, &B);
   J.noalias() += B * bending_chain_;
   // Gravity: ∂(−m_i g)/∂ρ_A = −(Σ Ā_T/3) g.
   subtract_gravity_density_column(m.vertex_area, gravity_, FlatLayout::kDensity, dgradient_dk);
