@@ -185,24 +185,34 @@ Eigen::Vector4d HingeCalibration::kirchhoff_love_targets(
   return t;
 }
 
-HingeClassStiffness HingeCalibration::solve(const MaterialParameters& p) const {
-  Eigen::Matrix<double, 4, 5> dt;
-  const Eigen::Vector4d t = kirchhoff_love_targets(p, &dt);
-  const Eigen::MatrixXd& A = cylinder_response_;
-  const int n = num_classes();
-  const double k_tol = 1e-12;
+namespace {
 
+// A class stiffness this far below zero (relative to the largest) counts as zero in an exact
+// match (round-off of a 3 × 3 or 4 × 4 solve); anything more negative rejects the match.
+constexpr double kNegativeStiffnessTolerance = 1e-12;
+// Solves whose matrix is conditioned worse than this are skipped: the exact match's
+// rows × classes system, and the least-squares normal equations (squared condition).
+constexpr double kExactConditionFloor = 1e-10;
+constexpr double kNormalConditionFloor = 1e-12;
+// A later least-squares subset replaces the best only when its residual is smaller by more
+// than round-off.
+constexpr double kResidualTieFraction = 1e-12;
+
+// (A k − t)_j / t_j per calibration cylinder (absolute where the target is zero).
+Eigen::Vector4d relative_error_of(const Eigen::MatrixXd& A, const Eigen::Vector4d& t, const Eigen::VectorXd& k) {
+  Eigen::Vector4d r = A * k - t;
+  for (int j = 0; j < 4; ++j) r[j] = t[j] != 0.0 ? r[j] / t[j] : r[j];
+  return r;
+}
+
+// 1. Exact matches: warp, weft and one of the two 45° cylinders (equal KL energies, by
+//    orthotropic symmetry) for three classes; all four for four classes. Among exact
+//    non-negative solutions the one with the smallest error on the remaining rows; `exact`
+//    false when there is none.
+HingeClassStiffness exact_match(const Eigen::MatrixXd& A, const Eigen::Vector4d& t, const Eigen::Matrix<double, 4, 5>& dt) {
+  const auto n = static_cast<int>(A.cols());
   HingeClassStiffness best;
   double best_error = std::numeric_limits<double>::infinity();
-  auto relative_error = [&](const Eigen::VectorXd& k) {
-    Eigen::Vector4d r = A * k - t;
-    for (int j = 0; j < 4; ++j) r[j] = t[j] != 0.0 ? r[j] / t[j] : r[j];
-    return r;
-  };
-
-  // 1. Exact matches: warp, weft and one of the two 45° cylinders (equal KL energies, by
-  //    orthotropic symmetry) for three classes; all four for four classes. Among exact
-  //    non-negative solutions keep the one with the smallest error on the remaining rows.
   std::vector<std::vector<int>> row_sets;
   if (n == 3) row_sets = {{0, 1, 2}, {0, 1, 3}};
   if (n == 4) row_sets = {{0, 1, 2, 3}};
@@ -216,10 +226,10 @@ HingeClassStiffness HingeCalibration::solve(const MaterialParameters& p) const {
       dtR.row(r) = dt.row(rows[static_cast<size_t>(r)]);
     }
     const Eigen::FullPivLU<Eigen::MatrixXd> lu(AR);
-    if (lu.rank() < n || lu.rcond() < 1e-10) continue;
+    if (lu.rank() < n || lu.rcond() < kExactConditionFloor) continue;
     const Eigen::VectorXd k = lu.solve(tR);
-    if ((k.array() < -k_tol * k.cwiseAbs().maxCoeff()).any()) continue;
-    const Eigen::Vector4d err = relative_error(k);
+    if ((k.array() < -kNegativeStiffnessTolerance * k.cwiseAbs().maxCoeff()).any()) continue;
+    const Eigen::Vector4d err = relative_error_of(A, t, k);
     const double worst = err.cwiseAbs().maxCoeff();
     if (worst < best_error) {
       best_error = worst;
@@ -229,12 +239,17 @@ HingeClassStiffness HingeCalibration::solve(const MaterialParameters& p) const {
       best.relative_error = err;
     }
   }
-  if (best.exact) return best;
+  return best;
+}
 
-  // 2. Otherwise the pattern cannot separate these cylinders: non-negative least squares
-  //    over all four, by enumerating the active classes (n ≤ 4, at most 15 subsets). The fit
-  //    is unweighted (every row is an energy per area at unit curvature), so on a fixed
-  //    subset k is linear in the targets and ∂k = (A_Pᵀ A_P)⁻¹ A_Pᵀ ∂t.
+// 2. Otherwise the pattern cannot separate these cylinders: non-negative least squares over
+//    all four, by enumerating the active classes (n ≤ 4, at most 15 subsets). The fit is
+//    unweighted (every row is an energy per area at unit curvature), so on a fixed subset k is
+//    linear in the targets and ∂k = (A_Pᵀ A_P)⁻¹ A_Pᵀ ∂t.
+HingeClassStiffness nonnegative_least_squares(const Eigen::MatrixXd& A, const Eigen::Vector4d& t,
+                                              const Eigen::Matrix<double, 4, 5>& dt) {
+  const auto n = static_cast<int>(A.cols());
+  HingeClassStiffness best;
   double best_residual = std::numeric_limits<double>::infinity();
   for (int mask = 1; mask < (1 << n); ++mask) {
     std::vector<int> cols;
@@ -244,11 +259,11 @@ HingeClassStiffness HingeCalibration::solve(const MaterialParameters& p) const {
     for (size_t c = 0; c < cols.size(); ++c) AP.col(static_cast<Eigen::Index>(c)) = A.col(cols[c]);
     const Eigen::MatrixXd M = AP.transpose() * AP;
     const Eigen::FullPivLU<Eigen::MatrixXd> lu(M);
-    if (lu.rank() < M.rows() || lu.rcond() < 1e-12) continue;
+    if (lu.rank() < M.rows() || lu.rcond() < kNormalConditionFloor) continue;
     const Eigen::VectorXd kP = lu.solve(AP.transpose() * t);
     if ((kP.array() < 0.0).any()) continue;
     const double residual = (AP * kP - t).norm();
-    if (residual < best_residual * (1.0 - 1e-12)) {
+    if (residual < best_residual * (1.0 - kResidualTieFraction)) {
       best_residual = residual;
       const Eigen::MatrixXd dkP = lu.solve(AP.transpose() * dt);
       best.stiffness = Eigen::VectorXd::Zero(n);
@@ -264,92 +279,116 @@ HingeClassStiffness HingeCalibration::solve(const MaterialParameters& p) const {
         "hinge calibration: no non-negative hinge stiffness fits the bending targets (are "
         "a11, a22 and a12 + G12 positive?)");
   best.exact = false;
-  best.relative_error = relative_error(best.stiffness);
+  best.relative_error = relative_error_of(A, t, best.stiffness);
   return best;
 }
 
-HingeClasses classify_hinges(const StripTriangulation& tri) {
-  // Mode of each hinge in a given set of planar positions.
-  auto reference_of = [](const Eigen::Matrix<double, Eigen::Dynamic, 2>& xy, const Hinge& h) {
-    return hinge_reference(xy.row(h.v[0]).transpose(), xy.row(h.v[1]).transpose(),
-                           xy.row(h.v[2]).transpose(), xy.row(h.v[3]).transpose());
-  };
-  // Unit mode up to sign (first clearly non-zero entry positive).
-  auto direction = [](const Eigen::Vector3d& mode) {
-    Eigen::Vector3d d = mode.normalized();
-    for (int i = 0; i < 3; ++i)
-      if (std::abs(d[i]) > 1e-8) {
-        if (d[i] < 0) d = -d;
-        break;
-      }
-    return d;
-  };
+// Mode of a hinge in a given set of planar positions.
+HingeReference reference_of(const Eigen::Matrix<double, Eigen::Dynamic, 2>& xy, const Hinge& h) {
+  return hinge_reference(xy.row(h.v[0]).transpose(), xy.row(h.v[1]).transpose(), xy.row(h.v[2]).transpose(),
+                         xy.row(h.v[3]).transpose());
+}
 
-  // A 4 × 4-cell patch of the unperturbed pattern with the same cells.
-  const TrianglePattern base =
-      tri.pattern == TrianglePattern::Irregular ? TrianglePattern::Alternating : tri.pattern;
+// Unit mode up to sign (first clearly non-zero entry positive).
+constexpr double kSignEntryFloor = 1e-8;
+Eigen::Vector3d mode_direction(const Eigen::Vector3d& mode) {
+  Eigen::Vector3d d = mode.normalized();
+  for (int i = 0; i < 3; ++i)
+    if (std::abs(d[i]) > kSignEntryFloor) {
+      if (d[i] < 0) d = -d;
+      break;
+    }
+  return d;
+}
+
+// Two unit mode directions closer than this are one class.
+constexpr double kSameDirection = 1e-6;
+// The central cells' bounds are shifted down by this fraction of a cell (half-open windows).
+constexpr double kWindowShift = 1e-9;
+
+// The hinge classes of a 4 × 4-cell patch of the unperturbed pattern: per class its mode
+// direction, Σ g m mᵀ and count over the patch, and its hinges in the central 2 × 2 cells.
+struct PatternClasses {
+  std::vector<Eigen::Vector3d> directions;
+  std::vector<Eigen::Matrix3d> patch_sum;
+  std::vector<int> patch_count, central_count;
+
+  int find(const Eigen::Vector3d& d) const {
+    for (size_t c = 0; c < directions.size(); ++c)
+      if ((directions[c] - d).norm() < kSameDirection) return static_cast<int>(c);
+    return -1;
+  }
+  size_t add(const Eigen::Vector3d& d) {
+    directions.push_back(d);
+    patch_sum.push_back(Eigen::Matrix3d::Zero());
+    patch_count.push_back(0);
+    central_count.push_back(0);
+    return directions.size() - 1;
+  }
+};
+
+PatternClasses pattern_classes(const StripTriangulation& tri) {
+  const TrianglePattern base = tri.pattern == TrianglePattern::Irregular ? TrianglePattern::Alternating : tri.pattern;
   StripSpec patch_spec;
   patch_spec.cells_along = 4;
   patch_spec.cells_across = 4;
   patch_spec.length_m = 4.0 * tri.cell_length_m;
   patch_spec.width_m = 4.0 * tri.cell_width_m;
   const StripTriangulation patch = triangulate_strip(patch_spec, base, 0.0, 0);
-
-  HingeClasses out;
-  std::vector<Eigen::Vector3d> directions;
-  std::vector<Eigen::Matrix3d> patch_sum;
-  std::vector<int> patch_count, central_count;
-  auto find_class = [&](const Eigen::Vector3d& d) {
-    for (size_t c = 0; c < directions.size(); ++c)
-      if ((directions[c] - d).norm() < 1e-6) return static_cast<int>(c);
-    return -1;
-  };
+  PatternClasses out;
   const double hx = tri.cell_length_m, hy = tri.cell_width_m;
   const double y0 = -0.5 * patch_spec.width_m;
   for (const Hinge& h : patch.hinges) {
     const HingeReference r = reference_of(patch.base_xy, h);
-    const Eigen::Vector3d d = direction(r.mode);
-    int c = find_class(d);
-    if (c < 0) {
-      c = static_cast<int>(directions.size());
-      directions.push_back(d);
-      patch_sum.push_back(Eigen::Matrix3d::Zero());
-      patch_count.push_back(0);
-      central_count.push_back(0);
-    }
-    const auto cu = static_cast<size_t>(c);
-    patch_sum[cu] += r.weight * r.mode * r.mode.transpose();
-    ++patch_count[cu];
+    const Eigen::Vector3d d = mode_direction(r.mode);
+    const int found = out.find(d);
+    const size_t cu = found < 0 ? out.add(d) : static_cast<size_t>(found);
+    out.patch_sum[cu] += r.weight * r.mode * r.mode.transpose();
+    ++out.patch_count[cu];
     // The central 2 × 2 cells (half-open, so each periodic hinge is counted once per period).
-    const Eigen::Vector2d mid =
-        0.5 * (patch.base_xy.row(h.v[0]) + patch.base_xy.row(h.v[1])).transpose();
-    const double s = 1e-9;
+    const Eigen::Vector2d mid = 0.5 * (patch.base_xy.row(h.v[0]) + patch.base_xy.row(h.v[1])).transpose();
+    const double s = kWindowShift;
     if (mid.x() >= hx * (1 - s) && mid.x() < hx * (3 - s) && mid.y() >= y0 + hy * (1 - s) &&
         mid.y() < y0 + hy * (3 - s))
-      ++central_count[cu];
+      ++out.central_count[cu];
   }
+  return out;
+}
 
-  const size_t nc = directions.size();
+}  // namespace
+
+HingeClassStiffness HingeCalibration::solve(const MaterialParameters& p) const {
+  Eigen::Matrix<double, 4, 5> dt;
+  const Eigen::Vector4d t = kirchhoff_love_targets(p, &dt);
+  HingeClassStiffness exact = exact_match(cylinder_response_, t, dt);
+  if (exact.exact) return exact;
+  return nonnegative_least_squares(cylinder_response_, t, dt);
+}
+
+HingeClasses classify_hinges(const StripTriangulation& tri) {
+  const PatternClasses pattern = pattern_classes(tri);
+  const size_t nc = pattern.directions.size();
+  HingeClasses out;
   std::vector<Eigen::Matrix3d> mesh_sum(nc, Eigen::Matrix3d::Zero());
   std::vector<int> mesh_count(nc, 0);
   out.class_of_hinge.reserve(tri.hinges.size());
   for (const Hinge& h : tri.hinges) {
-    const int c = find_class(direction(reference_of(tri.base_xy, h).mode));
+    const int c = pattern.find(mode_direction(reference_of(tri.base_xy, h).mode));
     if (c < 0) throw std::logic_error("classify_hinges: a hinge mode is not in the pattern");
     const HingeReference r = reference_of(tri.reference_xy, h);
     mesh_sum[static_cast<size_t>(c)] += r.weight * r.mode * r.mode.transpose();
     ++mesh_count[static_cast<size_t>(c)];
     out.class_of_hinge.push_back(c);
   }
-  const double cell_area = hx * hy;
+  const double cell_area = tri.cell_length_m * tri.cell_width_m;
   for (size_t c = 0; c < nc; ++c) {
     // Hinges per cell: 4 central cells. The mean over the mesh's own hinges when it has any
     // (the homogenised response of a perturbed mesh), else over the patch.
-    const double density = central_count[c] / (4.0 * cell_area);
+    const double density = pattern.central_count[c] / (4.0 * cell_area);
     const Eigen::Matrix3d mean = mesh_count[c] > 0 ? Eigen::Matrix3d(mesh_sum[c] / mesh_count[c])
-                                                   : Eigen::Matrix3d(patch_sum[c] / patch_count[c]);
+                                                   : Eigen::Matrix3d(pattern.patch_sum[c] / pattern.patch_count[c]);
     out.response.push_back(density * mean);
-    out.hinges_per_cell.push_back(central_count[c] / 4);
+    out.hinges_per_cell.push_back(pattern.central_count[c] / 4);
     out.density.push_back(density);
   }
   return out;
