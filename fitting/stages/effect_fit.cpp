@@ -155,6 +155,78 @@ struct ValidationEvidence {
   std::vector<Eigen::VectorXd> offsets;  ///< per strip, its best offset [deg]
 };
 
+// The instruments whose noise the score test's calibration profiles apart
+// (ScoreCalibration::instruments).
+enum Instrument { kLoadCell, kLateralGauge };
+
+// The score test's system on the validation strips' rows (EffectFit::validation_evidence):
+// residuals r = (s F − F̆)/F̆ at the nominal angle; baseline columns per strip its scale
+// (s F/F̆), then per test a common offset (its strips' s F'/F̆); candidate columns per strip
+// its own offset (s F'/F̆).
+struct ValidationSystem {
+  std::vector<Eigen::Index> rows;           ///< per strip
+  std::vector<const TensileTest*> tests;    ///< the strips' tests, each once, in order met
+  Eigen::VectorXd r;
+  Eigen::MatrixXd baseline, offsets;
+  ScoreCalibration calibration;             ///< one instrument, the load cell
+
+  explicit ValidationSystem(const std::vector<const RunData*>& runs) {
+    for (const RunData* d : runs) {
+      rows.push_back(d->force_N.size());
+      if (std::find(tests.begin(), tests.end(), d->test) == tests.end()) tests.push_back(d->test);
+    }
+    const Eigen::Index m = std::accumulate(rows.begin(), rows.end(), Eigen::Index{0});
+    const auto n_runs = static_cast<Eigen::Index>(runs.size()), n_tests = static_cast<Eigen::Index>(tests.size());
+    r.resize(m);
+    baseline = Eigen::MatrixXd::Zero(m, n_runs + n_tests);
+    offsets = Eigen::MatrixXd::Zero(m, n_runs);
+    calibration.measured.resize(m);
+    calibration.instruments.assign(runs.size(), kLoadCell);
+  }
+
+  // Strip k's rows from `row` on, of test `test`.
+  void add_strip(size_t k, Eigen::Index row, const TensileTest* test, const StripForces& f) {
+    const double s = OffsetSearch::scale(f.force_N, f.measured_N, true);
+    const auto i = static_cast<Eigen::Index>(k), n = rows[k];
+    const auto n_runs = static_cast<Eigen::Index>(offsets.cols());
+    const auto t = static_cast<Eigen::Index>(std::find(tests.begin(), tests.end(), test) - tests.begin());
+    const Eigen::VectorXd slope = (s * f.dforce_dangle).cwiseQuotient(f.measured_N.cwiseAbs());
+    r.segment(row, n) = (s * f.force_N - f.measured_N).cwiseQuotient(f.measured_N.cwiseAbs());
+    calibration.measured.segment(row, n) = f.measured_N.cwiseAbs();
+    baseline.col(i).segment(row, n) = (s * f.force_N).cwiseQuotient(f.measured_N.cwiseAbs());
+    baseline.col(n_runs + t).segment(row, n) = slope;
+    offsets.col(i).segment(row, n) = slope;
+  }
+};
+
+// The validation strips' errors without the effect (each test's strips at their common offset)
+// and held out by rows (2-fold): the offsets fitted on every other row of each strip (per test
+// common, per strip own) judged on the rows between, and the other way round.
+struct ValidationErrors {
+  std::vector<double> without, held_without, held_with;
+};
+
+ValidationErrors common_offset_errors(const std::vector<StripForces>& forces, const std::vector<const RunData*>& runs,
+                                      const std::vector<const TensileTest*>& tests) {
+  ValidationErrors out;
+  out.without.resize(runs.size());
+  for (const TensileTest* test : tests) {
+    std::vector<size_t> members;
+    for (size_t k = 0; k < runs.size(); ++k)
+      if (runs[k]->test == test) members.push_back(k);
+    const double common = grid_offset(forces, members, Rows::all);
+    for (size_t k : members) out.without[k] = strip_error(forces[k], common, Rows::all);
+    for (const auto& [fitted, judged] : {std::pair{Rows::even, Rows::odd}, std::pair{Rows::odd, Rows::even}}) {
+      const double common_fold = grid_offset(forces, members, fitted);
+      for (size_t k : members) {
+        out.held_without.push_back(strip_error(forces[k], common_fold, judged));
+        out.held_with.push_back(strip_error(forces[k], grid_offset(forces, {k}, fitted), judged));
+      }
+    }
+  }
+  return out;
+}
+
 class EffectFit final : public FitStage {
  public:
   explicit EffectFit(EffectFitOptions options) : options_(std::move(options)) {}
@@ -250,10 +322,6 @@ class EffectFit final : public FitStage {
   std::deque<RunData> lateral_runs_;  ///< runs whose lateral strains it fits
 
   bool bends() const { return options_.observable == "chord_angle_deg"; }
-
-  /// The instruments whose noise the score test's calibration profiles apart
-  /// (ScoreCalibration::instruments).
-  enum Instrument { kLoadCell, kLateralGauge };
 
   // What the lateral strains carry beside each run's noise, on the predictors' rows (none
   // without lateral rows): the curves' levels (lateral_level_noise) and the mesh's and the
@@ -511,81 +579,45 @@ class EffectFit final : public FitStage {
     search_options.free_scale = true;
     OffsetSearch search(search_options, context.effects[index]);
     const auto samples = search.search(context, runs, level);
-    std::vector<Eigen::Index> rows;
-    std::vector<const TensileTest*> tests_of_runs;
-    for (const RunData* d : runs) {
-      rows.push_back(d->force_N.size());
-      if (std::find(tests_of_runs.begin(), tests_of_runs.end(), d->test) == tests_of_runs.end())
-        tests_of_runs.push_back(d->test);
-    }
-    const Eigen::Index m = std::accumulate(rows.begin(), rows.end(), Eigen::Index{0});
-    const auto n_runs = static_cast<Eigen::Index>(runs.size()), n_tests = static_cast<Eigen::Index>(tests_of_runs.size());
-    Eigen::VectorXd r(m);
-    Eigen::MatrixXd baseline = Eigen::MatrixXd::Zero(m, n_runs + n_tests);  // scales, then common offsets
-    Eigen::MatrixXd offsets = Eigen::MatrixXd::Zero(m, n_runs);
-    ScoreCalibration calibration;  // one instrument, the load cell (set_instruments)
-    calibration.measured.resize(m);
-    calibration.instruments.assign(runs.size(), kLoadCell);
+    ValidationSystem system(runs);
     ValidationEvidence evidence;
     std::vector<double> with;
     std::vector<std::string> tests;
     std::vector<StripForces> forces;
     Eigen::Index row = 0;
     for (size_t k = 0; k < runs.size(); ++k) {
-      const OffsetSearch::Sample* nominal = OffsetSearch::nominal(samples[k]);
-      if (!nominal)
-        throw std::runtime_error("effect-fit " + options_.effect + ": validation " + FitContext::run_label(*runs[k]) +
-                                 " did not converge at its nominal angle");
-      const Eigen::VectorXd measured = runs[k]->unscaled_force_N();
-      const Eigen::VectorXd& f = nominal->simulated.force_N;
-      if (nominal->simulated.dforce_dangle.size() != f.size())
-        throw std::logic_error("effect-fit " + options_.effect + ": the offset search kept no dF/dθ at the nominal angle");
-      const double s = OffsetSearch::scale(f, measured, true);
-      const auto i = static_cast<Eigen::Index>(k);
-      const Eigen::VectorXd slope = (s * nominal->simulated.dforce_dangle).cwiseQuotient(measured.cwiseAbs());
-      const auto t = static_cast<Eigen::Index>(std::find(tests_of_runs.begin(), tests_of_runs.end(), runs[k]->test) -
-                                               tests_of_runs.begin());
-      r.segment(row, rows[k]) = (s * f - measured).cwiseQuotient(measured.cwiseAbs());
-      calibration.measured.segment(row, rows[k]) = measured.cwiseAbs();
-      baseline.col(i).segment(row, rows[k]) = (s * f).cwiseQuotient(measured.cwiseAbs());
-      baseline.col(n_runs + t).segment(row, rows[k]) = slope;
-      offsets.col(i).segment(row, rows[k]) = slope;
-      row += rows[k];
-      forces.push_back({f, nominal->simulated.dforce_dangle, measured});
+      forces.push_back(nominal_forces(samples[k], *runs[k]));
+      system.add_strip(k, row, runs[k]->test, forces.back());
+      row += system.rows[k];
       const OffsetSearch::Sample& best = *OffsetSearch::best(samples[k]);
       with.push_back(best.error);
       tests.push_back(runs[k]->test->label);
       evidence.offsets.push_back(Eigen::VectorXd::Constant(1, best.offset_deg));
     }
-    // Without: each test's strips at their common offset. Held out by rows (2-fold): the offsets
-    // fitted on every other row of each strip (per test common, per strip own) judged on the
-    // rows between, and the other way round.
-    std::vector<double> without(runs.size()), held_without, held_with;
-    for (const TensileTest* test : tests_of_runs) {
-      std::vector<size_t> members;
-      for (size_t k = 0; k < runs.size(); ++k)
-        if (runs[k]->test == test) members.push_back(k);
-      const double common = grid_offset(forces, members, Rows::all);
-      for (size_t k : members) without[k] = strip_error(forces[k], common, Rows::all);
-      for (const auto& [fitted, judged] : {std::pair{Rows::even, Rows::odd}, std::pair{Rows::odd, Rows::even}}) {
-        const double common_fold = grid_offset(forces, members, fitted);
-        for (size_t k : members) {
-          held_without.push_back(strip_error(forces[k], common_fold, judged));
-          held_with.push_back(strip_error(forces[k], grid_offset(forces, {k}, fitted), judged));
-        }
-      }
-    }
-    const ScoreTest t = score_test(r, baseline, offsets, rows, calibration);
+    const ValidationErrors errors = common_offset_errors(forces, runs, system.tests);
+    const ScoreTest t = score_test(system.r, system.baseline, system.offsets, system.rows, system.calibration);
     FitEffect& result = evidence.record;
     result.effect = options_.effect;
     result.resolution = resolution_at(context, level);
     result.runs = static_cast<int>(runs.size());
-    result.points = static_cast<int>(m);
+    result.points = static_cast<int>(system.r.size());
     set_score(t, &result);
-    set_errors(tests, without, with, t.run_noise, &result);
-    result.held_out_rows_without = mean(held_without);
-    result.held_out_rows_with = mean(held_with);
+    set_errors(tests, errors.without, with, t.run_noise, &result);
+    result.held_out_rows_without = mean(errors.held_without);
+    result.held_out_rows_with = mean(errors.held_with);
     return evidence;
+  }
+
+  // A validation strip's forces at its nominal angle, with dF/dθ there.
+  StripForces nominal_forces(const std::vector<OffsetSearch::Sample>& samples, const RunData& run) const {
+    const OffsetSearch::Sample* nominal = OffsetSearch::nominal(samples);
+    if (!nominal)
+      throw std::runtime_error("effect-fit " + options_.effect + ": validation " + FitContext::run_label(run) +
+                               " did not converge at its nominal angle");
+    const Eigen::VectorXd& f = nominal->simulated.force_N;
+    if (nominal->simulated.dforce_dangle.size() != f.size())
+      throw std::logic_error("effect-fit " + options_.effect + ": the offset search kept no dF/dθ at the nominal angle");
+    return {f, nominal->simulated.dforce_dangle, run.unscaled_force_N()};
   }
 
   static bool has_repeats(const std::vector<RunData*>& runs) {
