@@ -49,31 +49,60 @@ const StripCurves::KeptCurve* StripCurves::kept(const TensileTest* test, double 
   return nullptr;
 }
 
-std::vector<std::optional<StripCurves::Simulated>> StripCurves::simulate(const FitContext& context,
-                                                                         const std::vector<Request>& requests,
-                                                                         int level, bool angle_derivative) {
-  struct Group {
-    const TensileTest* test;
-    double angle_deg;
-    std::vector<double> extensions;
-    TensileCurve curve;
-    std::vector<Eigen::Vector3d> strain_samples;
-  };
+namespace {
+
+// The requests of one test at one angle: one strip simulated for all of them, over the union
+// of their extensions (sorted, each once).
+struct Group {
+  const TensileTest* test;
+  double angle_deg;
+  std::vector<double> extensions;
+  TensileCurve curve;
+  std::vector<Eigen::Vector3d> strain_samples;
+};
+
+std::vector<Group> group_requests(const std::vector<StripCurves::Request>& requests, std::vector<size_t>* group_of) {
   std::vector<Group> groups;
-  std::vector<size_t> group_of(requests.size());
+  group_of->resize(requests.size());
   for (size_t r = 0; r < requests.size(); ++r) {
-    const Request& q = requests[r];
-    auto g = std::find_if(groups.begin(), groups.end(), [&](const Group& x) {
-      return x.test == q.run->test && x.angle_deg == q.angle_deg;
-    });
+    const StripCurves::Request& q = requests[r];
+    auto g = std::find_if(groups.begin(), groups.end(),
+                          [&](const Group& x) { return x.test == q.run->test && x.angle_deg == q.angle_deg; });
     if (g == groups.end()) g = groups.insert(groups.end(), Group{q.run->test, q.angle_deg, {}, {}, {}});
     g->extensions.insert(g->extensions.end(), q.run->extension_mm.begin(), q.run->extension_mm.end());
-    group_of[r] = static_cast<size_t>(g - groups.begin());
+    (*group_of)[r] = static_cast<size_t>(g - groups.begin());
   }
   for (Group& g : groups) {
     std::sort(g.extensions.begin(), g.extensions.end());
     g.extensions.erase(std::unique(g.extensions.begin(), g.extensions.end()), g.extensions.end());
   }
+  return groups;
+}
+
+// A run's forces (and dF/dθ) at its own extensions from its group's points; nothing when the
+// curve stopped before the last of them.
+std::optional<StripCurves::Simulated> run_forces(const std::vector<TensilePoint>& points,
+                                                 const std::vector<double>& wanted) {
+  StripCurves::Simulated run{Eigen::VectorXd(static_cast<Eigen::Index>(wanted.size())),
+                             Eigen::VectorXd(static_cast<Eigen::Index>(wanted.size()))};
+  size_t j = 0;
+  for (size_t i = 0; i < wanted.size(); ++i) {
+    while (j < points.size() && points[j].extension_mm != wanted[i]) ++j;
+    if (j == points.size()) return std::nullopt;
+    run.force_N[static_cast<Eigen::Index>(i)] = points[j].force_N;
+    run.dforce_dangle[static_cast<Eigen::Index>(i)] = points[j].dforce_dangle;
+  }
+  if (wanted.empty()) return std::nullopt;
+  return run;
+}
+
+}  // namespace
+
+std::vector<std::optional<StripCurves::Simulated>> StripCurves::simulate(const FitContext& context,
+                                                                         const std::vector<Request>& requests,
+                                                                         int level, bool angle_derivative) {
+  std::vector<size_t> group_of;
+  std::vector<Group> groups = group_requests(requests, &group_of);
   // The model's effects (effects/effect_experiment.hpp): the law hooks before the strips
   // simulate, the observable hooks added to each request's forces below.
   const auto effects = instantiate_effects(context.params, context.registry());
@@ -113,21 +142,10 @@ std::vector<std::optional<StripCurves::Simulated>> StripCurves::simulate(const F
       kept_.push_back({groups[i].test, groups[i].angle_deg, level, adjusted, groups[i].curve.points});
   std::vector<std::optional<Simulated>> out(requests.size());
   for (size_t r = 0; r < requests.size(); ++r) {
-    const std::vector<TensilePoint>& points = groups[group_of[r]].curve.points;
-    const std::vector<double>& wanted = requests[r].run->extension_mm;
-    Simulated run{Eigen::VectorXd(static_cast<Eigen::Index>(wanted.size())),
-                  Eigen::VectorXd(static_cast<Eigen::Index>(wanted.size()))};
-    size_t j = 0;
-    for (size_t i = 0; i < wanted.size(); ++i) {
-      while (j < points.size() && points[j].extension_mm != wanted[i]) ++j;
-      if (j == points.size()) break;
-      run.force_N[static_cast<Eigen::Index>(i)] = points[j].force_N;
-      run.dforce_dangle[static_cast<Eigen::Index>(i)] = points[j].dforce_dangle;
-      if (i + 1 == wanted.size()) out[r] = run;
-    }
+    out[r] = run_forces(groups[group_of[r]].curve.points, requests[r].run->extension_mm);
     if (out[r] && !effects.empty()) {
       const ObservableChange change = observable_additions(
-          effects, FitContext::run_conditions(*requests[r].run, requests[r].angle_deg), adjusted, run.force_N.size());
+          effects, FitContext::run_conditions(*requests[r].run, requests[r].angle_deg), adjusted, out[r]->force_N.size());
       out[r]->force_N += change.added;
       out[r]->dforce_dangle += change.d_angle;
     }
