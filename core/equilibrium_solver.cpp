@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 #include <utility>
 
@@ -420,6 +421,84 @@ EquilibriumSummary EquilibriumSolver::converged_at_floor(const Eigen::VectorXd& 
                 *psi, start, s);
 }
 
+std::optional<EquilibriumSummary> EquilibriumSolver::stop_at_iterate(const NewtonIterate& it, double psi,
+                                                                     Clock::time_point start, EquilibriumSummary* s) {
+  if (it.positive_definite && it.small_gradient && it.small_decrement) {
+    dofs_.extract_free_fixed(hessian_, &k_fc_);
+    factor_at_solution_ = predictor_factor_ = true;
+    return finish(EquilibriumStatus::kConverged,
+                  fmt::format("converged: |g_f|inf = {:.3e} N <= {:.1e} x {:.3e} N, "
+                              "lambda^2 = {:.3e} J",
+                              it.gradient_norm, options_.gradient_tolerance, it.force, -it.slope),
+                  psi, start, s);
+  }
+  if (!it.positive_definite && it.small_gradient) {
+    return finish(EquilibriumStatus::kIndefiniteStationary,
+                  fmt::format("stationary point (|g_f|inf = {:.3e} N) where K_ff is not "
+                              "positive definite (column {}): not a minimum",
+                              it.gradient_norm, cholesky_.failed_column()),
+                  psi, start, s);
+  }
+  if (s->newton_iterations >= options_.max_newton_iterations) {
+    return finish(EquilibriumStatus::kMaxIterations,
+                  fmt::format("{} Newton iterations without convergence (|g_f|inf = {:.3e} N, "
+                              "F = {:.3e} N)",
+                              s->newton_iterations, it.gradient_norm, it.force),
+                  psi, start, s);
+  }
+  return std::nullopt;
+}
+
+EquilibriumSolver::StepOutcome EquilibriumSolver::newton_step(Eigen::VectorXd* q, double* psi, const NewtonIterate& it,
+                                                              bool energy_flat, std::string stall,
+                                                              Clock::time_point start, EquilibriumSummary* s) {
+  StepOutcome out;
+  std::string& reason = out.fallback_reason;
+  if (!it.positive_definite) reason = fmt::format("K_ff not positive definite (column {})", cholesky_.failed_column());
+  if (reason.empty() && !(it.slope < 0 && std::isfinite(it.slope)))
+    reason = fmt::format("ascent direction (g_f.d = {:.3e})", it.slope);
+  if (reason.empty() && it.small_gradient && energy_flat) {
+    out.done = converged_at_floor(*q, psi, it,
+                                  fmt::format("{} Newton steps changed Psi by less than {:.1e} x |Psi|",
+                                              options_.stall_window, options_.energy_roundoff),
+                                  start, s);
+    return out;
+  }
+  if (reason.empty()) reason = std::move(stall);
+  if (!reason.empty()) return out;
+  double alpha = 0;
+  const SearchResult result =
+      line_search(q, psi, it.slope, 0.0, it.small_gradient ? RoundoffRule::kByGradientOrFloor : RoundoffRule::kByGradient,
+                  solution_factor_needed_, &alpha, s);
+  if (result == SearchResult::kAccepted) return out;
+  if (result == SearchResult::kRoundoffFloor) {
+    out.done = converged_at_floor(*q, psi, it,
+                                  fmt::format("the Newton step changes neither Psi (by more than {:.1e} x |Psi|) "
+                                              "nor |g_f|",
+                                              options_.energy_roundoff),
+                                  start, s);
+    return out;
+  }
+  reason = "line search found no decrease";
+  return out;
+}
+
+std::optional<EquilibriumSummary> EquilibriumSolver::fall_back(Eigen::VectorXd* q, double* psi, double* time_step,
+                                                               const std::string& reason, Clock::time_point start,
+                                                               EquilibriumSummary* s) {
+  if (s->fallbacks >= options_.max_fallbacks) {
+    return finish(EquilibriumStatus::kFallbackLimit,
+                  fmt::format("failsafe needed ({}) but max_fallbacks = {} reached", reason, options_.max_fallbacks),
+                  *psi, start, s);
+  }
+  ++s->fallbacks;
+  s->last_fallback_reason = reason;
+  spdlog::debug("EquilibriumSolver: backward-Euler failsafe #{}: {}", s->fallbacks, reason);
+  if (!backward_euler(q, psi, time_step, s))
+    return finish(EquilibriumStatus::kFallbackFailed, reason + "; " + s->message, *psi, start, s);
+  return std::nullopt;
+}
+
 EquilibriumSummary EquilibriumSolver::solve(Eigen::VectorXd* q) {
   const auto start = Clock::now();
   if (q == nullptr || q->size() != dofs_.num_dofs()) {
@@ -455,74 +534,17 @@ EquilibriumSummary EquilibriumSolver::solve(Eigen::VectorXd* q) {
     }
     const NewtonIterate it = newton_direction(psi, &s);
     window.push(psi, it.gradient_norm);
-    if (it.positive_definite && it.small_gradient && it.small_decrement) {
-      dofs_.extract_free_fixed(hessian_, &k_fc_);
-      factor_at_solution_ = predictor_factor_ = true;
-      return finish(EquilibriumStatus::kConverged,
-                    fmt::format("converged: |g_f|inf = {:.3e} N <= {:.1e} x {:.3e} N, "
-                                "lambda^2 = {:.3e} J",
-                                it.gradient_norm, options_.gradient_tolerance, it.force, -it.slope),
-                    psi, start, &s);
+    if (auto done = stop_at_iterate(it, psi, start, &s)) return *done;
+    const bool energy_flat =
+        window.full() && std::fabs(window.first_energy() - psi) <= options_.energy_roundoff * std::fabs(psi);
+    StepOutcome step =
+        newton_step(q, &psi, it, energy_flat, stall_reason(options_, window, it.gradient_norm, psi), start, &s);
+    if (step.done) return *step.done;
+    if (step.fallback_reason.empty()) {
+      ++s.newton_iterations;
+      continue;
     }
-    if (!it.positive_definite && it.small_gradient) {
-      return finish(EquilibriumStatus::kIndefiniteStationary,
-                    fmt::format("stationary point (|g_f|inf = {:.3e} N) where K_ff is not "
-                                "positive definite (column {}): not a minimum",
-                                it.gradient_norm, cholesky_.failed_column()),
-                    psi, start, &s);
-    }
-    std::string reason =
-        it.positive_definite ? "" : fmt::format("K_ff not positive definite (column {})", cholesky_.failed_column());
-    if (s.newton_iterations >= options_.max_newton_iterations) {
-      return finish(EquilibriumStatus::kMaxIterations,
-                    fmt::format("{} Newton iterations without convergence (|g_f|inf = {:.3e} N, "
-                                "F = {:.3e} N)",
-                                s.newton_iterations, it.gradient_norm, it.force),
-                    psi, start, &s);
-    }
-    if (reason.empty() && !(it.slope < 0 && std::isfinite(it.slope))) {
-      reason = fmt::format("ascent direction (g_f.d = {:.3e})", it.slope);
-    }
-    if (reason.empty() && it.small_gradient && window.full() &&
-        std::fabs(window.first_energy() - psi) <= options_.energy_roundoff * std::fabs(psi)) {
-      return converged_at_floor(*q, &psi, it,
-                                fmt::format("{} Newton steps changed Psi by less than {:.1e} x |Psi|",
-                                            options_.stall_window, options_.energy_roundoff),
-                                start, &s);
-    }
-    if (reason.empty()) reason = stall_reason(options_, window, it.gradient_norm, psi);
-    if (reason.empty()) {
-      double alpha = 0;
-      const SearchResult result =
-          line_search(q, &psi, it.slope, 0.0,
-                      it.small_gradient ? RoundoffRule::kByGradientOrFloor : RoundoffRule::kByGradient,
-                      solution_factor_needed_, &alpha, &s);
-      if (result == SearchResult::kAccepted) {
-        ++s.newton_iterations;
-        continue;
-      }
-      if (result == SearchResult::kRoundoffFloor) {
-        return converged_at_floor(*q, &psi, it,
-                                  fmt::format("the Newton step changes neither Psi (by more than {:.1e} x |Psi|) "
-                                              "nor |g_f|",
-                                              options_.energy_roundoff),
-                                  start, &s);
-      }
-      reason = "line search found no decrease";
-    }
-
-    if (s.fallbacks >= options_.max_fallbacks) {
-      return finish(EquilibriumStatus::kFallbackLimit,
-                    fmt::format("failsafe needed ({}) but max_fallbacks = {} reached", reason,
-                                options_.max_fallbacks),
-                    psi, start, &s);
-    }
-    ++s.fallbacks;
-    s.last_fallback_reason = reason;
-    spdlog::debug("EquilibriumSolver: backward-Euler failsafe #{}: {}", s.fallbacks, reason);
-    if (!backward_euler(q, &psi, &time_step, &s)) {
-      return finish(EquilibriumStatus::kFallbackFailed, reason + "; " + s.message, psi, start, &s);
-    }
+    if (auto done = fall_back(q, &psi, &time_step, step.fallback_reason, start, &s)) return *done;
     window.clear();
   }
 }

@@ -87,6 +87,7 @@
 #include <Eigen/SparseCore>
 #include <chrono>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -301,6 +302,28 @@ class EquilibriumSolver {
   EquilibriumSummary converged_at_floor(const Eigen::VectorXd& q, double* psi, const NewtonIterate& it,
                                         const std::string& evidence, std::chrono::steady_clock::time_point start,
                                         EquilibriumSummary* summary);
+  // The iterate's end when it has one: converged, an indefinite stationary point, or the
+  // iteration limit.
+  std::optional<EquilibriumSummary> stop_at_iterate(const NewtonIterate& it, double psi,
+                                                    std::chrono::steady_clock::time_point start,
+                                                    EquilibriumSummary* summary);
+  // One Newton step along direction_ (line search) from an iterate that did not stop. `done`
+  // when it ends at the round-off floor (`energy_flat`: the stall window's Ψ changed by less than
+  // energy_roundoff); else a non-empty `fallback_reason` when backward Euler must take over
+  // (K_ff indefinite, an ascent direction, `stall`, or no decrease); else the step was taken.
+  struct StepOutcome {
+    std::optional<EquilibriumSummary> done;
+    std::string fallback_reason;
+  };
+  StepOutcome newton_step(Eigen::VectorXd* q, double* psi, const NewtonIterate& it, bool energy_flat,
+                          std::string stall, std::chrono::steady_clock::time_point start,
+                          EquilibriumSummary* summary);
+  // The backward-Euler failsafe for `reason`; the solve's end when the fallbacks are used up or
+  // it fails.
+  std::optional<EquilibriumSummary> fall_back(Eigen::VectorXd* q, double* psi, double* time_step_s,
+                                              const std::string& reason,
+                                              std::chrono::steady_clock::time_point start,
+                                              EquilibriumSummary* summary);
   // `summary` completed with the status, message, Ψ, the final ‖g_f‖∞ and F, and the wall time
   // since `start`.
   EquilibriumSummary finish(EquilibriumStatus status, std::string message, double psi,

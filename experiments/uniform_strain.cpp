@@ -2,9 +2,9 @@
 
 #include <Eigen/Cholesky>
 #include <cmath>
-#include <optional>
 #include <limits>
 #include <numbers>
+#include <optional>
 #include <stdexcept>
 
 namespace twill {
