@@ -27,6 +27,54 @@ Eigen::VectorXd reduced_direction(const Eigen::MatrixXd& H, const Eigen::VectorX
   return p;
 }
 
+// The inverse-Hessian approximation H and its scaling state (Nocedal & Wright §6.1).
+struct InverseHessian {
+  Eigen::MatrixXd H;
+  double gamma = 1.0;   // latest yᵀs / yᵀy: the scale of H after a reset
+  bool scaled = false;  // eq. 6.20 has been applied
+  bool fresh = true;    // H is a multiple of I (no curvature pairs): a retry would not help
+
+  explicit InverseHessian(Eigen::Index n) : H(Eigen::MatrixXd::Identity(n, n)) {}
+
+  void reset() {
+    H = gamma * Eigen::MatrixXd::Identity(H.rows(), H.cols());
+    fresh = true;
+  }
+
+  // The step s and gradient change y of an accepted line search: γ from a pair with enough
+  // curvature (H = γ I before the first update, eq. 6.20), then the update (eq. 6.17).
+  void update(const Eigen::VectorXd& s, const Eigen::VectorXd& y, double skip_threshold) {
+    const double ys = y.dot(s);
+    if (ys > skip_threshold * s.norm() * y.norm()) {
+      gamma = ys / y.squaredNorm();
+      if (!scaled) {
+        H = gamma * Eigen::MatrixXd::Identity(H.rows(), H.cols());
+        scaled = true;
+      }
+    }
+    if (bfgs_update(H, s, y, skip_threshold)) fresh = false;
+  }
+};
+
+// The search direction at x: variables at a bound that the gradient pushes outward are held,
+// blocked components dropped; once more from a reset H when it is not a descent direction
+// (unless H is fresh already). Its slope gᵀp into *slope.
+Eigen::VectorXd descent_direction(InverseHessian& inverse, const Eigen::VectorXd& x, const Eigen::VectorXd& g,
+                                  const Eigen::VectorXd& lower, const Eigen::VectorXd& upper, double* slope) {
+  std::vector<int> held;
+  const std::vector<int> free = free_variables(x, g, lower, upper, &held);
+  Eigen::VectorXd p = reduced_direction(inverse.H, g, free, held);
+  drop_blocked_components(x, lower, upper, p);
+  *slope = g.dot(p);
+  if (!(*slope < 0.0) && !inverse.fresh) {
+    inverse.reset();
+    p = reduced_direction(inverse.H, g, free, held);
+    drop_blocked_components(x, lower, upper, p);
+    *slope = g.dot(p);
+  }
+  return p;
+}
+
 }  // namespace
 
 std::vector<OptionBinding<BfgsOptions>> bfgs_option_bindings() {
@@ -83,56 +131,35 @@ Bfgs::Bfgs(BfgsOptions options) : options_(std::move(options)) {
 Options Bfgs::resolved_options() const { return options_of(bfgs_option_bindings(), options_); }
 
 void Bfgs::run(CountedProblem& problem, Eigen::VectorXd x0, OptimizerResult& result) const {
-  const Eigen::VectorXd& lower = problem.lower();
-  const Eigen::VectorXd& upper = problem.upper();
-  const Eigen::Index n = problem.dimension();
   LineSearchIterate at;
   if (!at.start(problem, std::move(x0), result)) return;
   const Eigen::VectorXd& x = at.x;
   const Eigen::VectorXd& g = at.g;
-  const double& f = at.f;
   auto finish = [&](OptimizerStatus status, std::string message) { at.finish(result, status, std::move(message)); };
 
-  Eigen::MatrixXd H = Eigen::MatrixXd::Identity(n, n);
-  double gamma = 1.0;   // latest yᵀs / yᵀy: the scale of H after a reset
-  bool scaled = false;  // eq. 6.20 has been applied
-  bool fresh = true;    // H is a multiple of I (no curvature pairs): a retry would not help
+  InverseHessian inverse(problem.dimension());
   int spent_on_failed_attempt = 0;  // evaluations of a failed search before the reset
   const LineSearchOptions line_search = options_.line_search();
   for (int k = 1;; ++k) {
     if (const auto stop = options_.iteration_stop(k, at.gradient_norm, problem.evaluations()))
       return finish(stop->status, stop->message);
-
-    // Variables at a bound that the gradient pushes outward are held for this step.
-    std::vector<int> held;
-    const std::vector<int> free = free_variables(x, g, lower, upper, &held);
-    Eigen::VectorXd p = reduced_direction(H, g, free, held);
-    drop_blocked_components(x, lower, upper, p);
-    double dphi0 = g.dot(p);
-    if (!(dphi0 < 0.0) && !fresh) {
-      H = gamma * Eigen::MatrixXd::Identity(n, n);
-      fresh = true;
-      p = reduced_direction(H, g, free, held);
-      drop_blocked_components(x, lower, upper, p);
-      dphi0 = g.dot(p);
-    }
+    double dphi0 = 0;
+    const Eigen::VectorXd p = descent_direction(inverse, x, g, problem.lower(), problem.upper(), &dphi0);
     if (!(dphi0 < 0.0))
       return finish(OptimizerStatus::stalled,
                     fmt::format("no descent direction at iteration {} (g'p = {:.3g})", k, dphi0));
 
-    const double alpha_initial = scaled ? 1.0 : std::min(1.0, 1.0 / p.norm());
+    const double alpha_initial = inverse.scaled ? 1.0 : std::min(1.0, 1.0 / p.norm());
     const BoxLineSearch search =
-        box_line_search(problem, x, f, dphi0, p, alpha_initial, line_search, options_.max_evaluations);
+        box_line_search(problem, x, at.f, dphi0, p, alpha_initial, line_search, options_.max_evaluations);
     const LineSearchOutcome& outcome = search.outcome;
-
     if (outcome.status == LineSearchOutcome::Status::failed) {
       if (problem.evaluations() >= options_.max_evaluations)
         return finish(
             OptimizerStatus::iteration_limit,
             fmt::format("max_evaluations = {} reached in a line search", options_.max_evaluations));
-      if (!fresh) {
-        H = gamma * Eigen::MatrixXd::Identity(n, n);
-        fresh = true;
+      if (!inverse.fresh) {  // retry the iteration from a reset H
+        inverse.reset();
         spent_on_failed_attempt = outcome.evaluations;
         --k;
         continue;
@@ -140,23 +167,9 @@ void Bfgs::run(CountedProblem& problem, Eigen::VectorXd x0, OptimizerResult& res
       return finish(OptimizerStatus::line_search_failed,
                     fmt::format("line search failed at iteration {}: {}", k, outcome.message));
     }
-
-    const Eigen::VectorXd s = search.x - x;
-    const Eigen::VectorXd y = search.gradient - g;
-    const double ys = y.dot(s);
-    const bool curvature_ok = ys > options_.update_skip_threshold * s.norm() * y.norm();
-    if (curvature_ok) {
-      gamma = ys / y.squaredNorm();
-      if (!scaled) {
-        H = gamma * Eigen::MatrixXd::Identity(n, n);  // eq. 6.20, before the first update
-        scaled = true;
-      }
-    }
-    if (bfgs_update(H, s, y, options_.update_skip_threshold)) fresh = false;
-
-    problem.record_line_search(line_search_record(k, f, dphi0, outcome, spent_on_failed_attempt));
+    inverse.update(search.x - x, search.gradient - g, options_.update_skip_threshold);
+    problem.record_line_search(line_search_record(k, at.f, dphi0, outcome, spent_on_failed_attempt));
     spent_on_failed_attempt = 0;
-
     if (auto reason = at.advance(problem, search, options_)) return finish(OptimizerStatus::converged, *reason);
   }
 }
