@@ -549,6 +549,46 @@ EquilibriumSummary EquilibriumSolver::solve(Eigen::VectorXd* q) {
   }
 }
 
+// The equilibria of the steps before (free and fixed dofs) and the tangent predictor's last
+// responses, for the next step's prediction.
+struct EquilibriumSolver::ContinuationHistory {
+  Eigen::VectorXd previous, before_previous;
+  Eigen::VectorXd fixed_now, fixed_previous, fixed_before;
+  Eigen::MatrixXd response, previous_response;  // a_i and a_{i−1} of kTangent (free dofs)
+  int equilibria = 0;
+};
+
+double EquilibriumSolver::step_ratio(ContinuationHistory& h) const {
+  // ρ = ⟨Δc_i, Δc_{i−1}⟩ / ‖Δc_{i−1}‖²: how far this step goes relative to the last one.
+  dofs_.gather_fixed(h.before_previous, &h.fixed_before);
+  const Eigen::VectorXd last_move = h.fixed_previous - h.fixed_before;
+  const double last_move2 = last_move.squaredNorm();
+  return last_move2 > 0 ? last_move.dot(h.fixed_now - h.fixed_previous) / last_move2 : 1.0;
+}
+
+bool EquilibriumSolver::predict(ContinuationPredictor predictor, const Eigen::VectorXd& q, ContinuationHistory& h,
+                                Eigen::VectorXd* guess) {
+  if (predictor == ContinuationPredictor::kSecant && h.equilibria >= 2) {
+    const double ratio = step_ratio(h);
+    *guess = q;
+    for (int dof : dofs_.free_dofs()) (*guess)[dof] = h.previous[dof] + ratio * (h.previous[dof] - h.before_previous[dof]);
+    return true;
+  }
+  if (predictor == ContinuationPredictor::kTangent && h.equilibria >= 1 && predictor_factor_) {
+    cholesky_.solve(Eigen::MatrixXd(-(k_fc_ * (h.fixed_now - h.fixed_previous))), &h.response);
+    Eigen::VectorXd move = h.response.col(0);
+    if (h.equilibria >= 2 && h.previous_response.size() == h.response.size()) {
+      const double ratio = step_ratio(h);
+      move += 0.5 * ratio * (h.response.col(0) - ratio * h.previous_response.col(0));
+    }
+    h.previous_response = h.response;
+    *guess = q;
+    dofs_.add_to_free(1.0, move, guess);
+    return true;
+  }
+  return false;
+}
+
 ContinuationSummary EquilibriumSolver::solve_continuation(int num_steps,
                                                           const LoadStepFunction& apply_step,
                                                           Eigen::VectorXd* q,
@@ -565,43 +605,16 @@ ContinuationSummary EquilibriumSolver::solve_continuation(int num_steps,
         fmt::format("solve_continuation: q must have {} entries", dofs_.num_dofs()));
   }
   ContinuationSummary summary;
-  Eigen::VectorXd previous, before_previous, guess;
-  Eigen::VectorXd fixed_now, fixed_previous, fixed_before;
-  Eigen::MatrixXd response, previous_response;  // a_i and a_{i−1} of kTangent (free dofs)
-  int equilibria = 0;
+  ContinuationHistory h;
+  Eigen::VectorXd guess;
   for (int step = 0; step < num_steps; ++step) {
     apply_step(step, q);
-    if (equilibria >= 1) {
-      dofs_.gather_fixed(*q, &fixed_now);
-      dofs_.gather_fixed(previous, &fixed_previous);
+    if (h.equilibria >= 1) {
+      dofs_.gather_fixed(*q, &h.fixed_now);
+      dofs_.gather_fixed(h.previous, &h.fixed_previous);
     }
-    // ρ = ⟨Δc_i, Δc_{i−1}⟩ / ‖Δc_{i−1}‖²: how far this step goes relative to the last one.
-    const auto step_ratio = [&] {
-      dofs_.gather_fixed(before_previous, &fixed_before);
-      const Eigen::VectorXd last_move = fixed_previous - fixed_before;
-      const double last_move2 = last_move.squaredNorm();
-      return last_move2 > 0 ? last_move.dot(fixed_now - fixed_previous) / last_move2 : 1.0;
-    };
-    bool predicted = false;
-    if (options.predictor == ContinuationPredictor::kSecant && equilibria >= 2) {
-      const double ratio = step_ratio();
-      guess = *q;
-      for (int dof : dofs_.free_dofs()) guess[dof] = previous[dof] + ratio * (previous[dof] - before_previous[dof]);
-      predicted = true;
-    } else if (options.predictor == ContinuationPredictor::kTangent && equilibria >= 1 &&
-               predictor_factor_) {
-      cholesky_.solve(Eigen::MatrixXd(-(k_fc_ * (fixed_now - fixed_previous))), &response);
-      Eigen::VectorXd move = response.col(0);
-      if (equilibria >= 2 && previous_response.size() == response.size()) {
-        const double ratio = step_ratio();
-        move += 0.5 * ratio * (response.col(0) - ratio * previous_response.col(0));
-      }
-      previous_response = response;
-      guess = *q;
-      dofs_.add_to_free(1.0, move, &guess);
-      predicted = true;
-    }
-    if (predicted) {
+    // The prediction is taken only where it lowers the energy of the plain start.
+    if (predict(options.predictor, *q, h, &guess)) {
       const double psi_plain = discretization_.energy(*q, nullptr, nullptr);
       const double psi_guess = discretization_.energy(guess, nullptr, nullptr);
       if (std::isfinite(psi_guess) && (!(psi_guess >= psi_plain))) {
@@ -620,9 +633,9 @@ ContinuationSummary EquilibriumSolver::solve_continuation(int num_steps,
     }
     ++summary.steps_completed;
     if (observer) observer(step, *q, summary.steps.back());
-    before_previous = previous;
-    previous = *q;
-    ++equilibria;
+    h.before_previous = h.previous;
+    h.previous = *q;
+    ++h.equilibria;
   }
   summary.completed = summary.steps_completed == num_steps;
   if (summary.completed) {

@@ -324,6 +324,13 @@ class EquilibriumSolver {
                                               const std::string& reason,
                                               std::chrono::steady_clock::time_point start,
                                               EquilibriumSummary* summary);
+  // The steps of solve_continuation(): the history its predictors read, the ratio ρ of this
+  // step's clamp move to the last one's, and the predicted start of a step (false: none applies,
+  // the plain start is solved from).
+  struct ContinuationHistory;
+  double step_ratio(ContinuationHistory& history) const;
+  bool predict(ContinuationPredictor predictor, const Eigen::VectorXd& q, ContinuationHistory& history,
+               Eigen::VectorXd* guess);
   // `summary` completed with the status, message, Ψ, the final ‖g_f‖∞ and F, and the wall time
   // since `start`.
   EquilibriumSummary finish(EquilibriumStatus status, std::string message, double psi,
