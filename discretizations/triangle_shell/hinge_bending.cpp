@@ -141,6 +141,11 @@ HingeReference hinge_reference(const Eigen::Vector2d& X0, const Eigen::Vector2d&
   return ref;
 }
 
+HingeReference hinge_reference(const Eigen::Matrix<double, Eigen::Dynamic, 2>& xy, const Hinge& h) {
+  const auto X = [&](size_t k) { return Eigen::Vector2d(xy.row(h.v[k]).transpose()); };
+  return hinge_reference(X(0), X(1), X(2), X(3));
+}
+
 std::vector<std::string> calibration_cylinder_names() { return {"warp", "weft", "+45", "-45"}; }
 
 HingeCalibration::HingeCalibration(std::vector<Eigen::Matrix3d> class_response, double angle_deg)
@@ -283,12 +288,6 @@ HingeClassStiffness nonnegative_least_squares(const Eigen::MatrixXd& A, const Ei
   return best;
 }
 
-// Mode of a hinge in a given set of planar positions.
-HingeReference reference_of(const Eigen::Matrix<double, Eigen::Dynamic, 2>& xy, const Hinge& h) {
-  return hinge_reference(xy.row(h.v[0]).transpose(), xy.row(h.v[1]).transpose(), xy.row(h.v[2]).transpose(),
-                         xy.row(h.v[3]).transpose());
-}
-
 // Unit mode up to sign (first clearly non-zero entry positive).
 constexpr double kSignEntryFloor = 1e-8;
 Eigen::Vector3d mode_direction(const Eigen::Vector3d& mode) {
@@ -339,7 +338,7 @@ PatternClasses pattern_classes(const StripTriangulation& tri) {
   const double hx = tri.cell_length_m, hy = tri.cell_width_m;
   const double y0 = -0.5 * patch_spec.width_m;
   for (const Hinge& h : patch.hinges) {
-    const HingeReference r = reference_of(patch.base_xy, h);
+    const HingeReference r = hinge_reference(patch.base_xy, h);
     const Eigen::Vector3d d = mode_direction(r.mode);
     const int found = out.find(d);
     const size_t cu = found < 0 ? out.add(d) : static_cast<size_t>(found);
@@ -373,9 +372,9 @@ HingeClasses classify_hinges(const StripTriangulation& tri) {
   std::vector<int> mesh_count(nc, 0);
   out.class_of_hinge.reserve(tri.hinges.size());
   for (const Hinge& h : tri.hinges) {
-    const int c = pattern.find(mode_direction(reference_of(tri.base_xy, h).mode));
+    const int c = pattern.find(mode_direction(hinge_reference(tri.base_xy, h).mode));
     if (c < 0) throw std::logic_error("classify_hinges: a hinge mode is not in the pattern");
-    const HingeReference r = reference_of(tri.reference_xy, h);
+    const HingeReference r = hinge_reference(tri.reference_xy, h);
     mesh_sum[static_cast<size_t>(c)] += r.weight * r.mode * r.mode.transpose();
     ++mesh_count[static_cast<size_t>(c)];
     out.class_of_hinge.push_back(c);
@@ -438,7 +437,7 @@ DirectionalHingeModel::DirectionalHingeModel(const StripTriangulation& tri,
     const Eigen::Vector2d t = (X(1) - X(0)).normalized();
     const Eigen::Vector3d w = directional_weights(Eigen::Vector2d(-t.y(), t.x()), angle_deg);
     weights_.row(static_cast<Eigen::Index>(h)) = w.transpose();
-    const HingeReference r = hinge_reference(X(0), X(1), X(2), X(3));
+    const HingeReference r = hinge_reference(tri.reference_xy, hinge);
     const auto c = static_cast<size_t>(classes.class_of_hinge[h]);
     for (int m = 0; m < 3; ++m) sum[c][static_cast<size_t>(m)] += r.weight * w[m] * r.mode * r.mode.transpose();
     ++count[c];

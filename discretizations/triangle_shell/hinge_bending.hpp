@@ -27,6 +27,7 @@
 namespace twill {
 
 struct StripTriangulation;
+struct Hinge;
 
 using Vector12 = Eigen::Matrix<double, 12, 1>;
 using Matrix12 = Eigen::Matrix<double, 12, 12>;
@@ -56,6 +57,8 @@ struct HingeReference {
 };
 HingeReference hinge_reference(const Eigen::Vector2d& X0, const Eigen::Vector2d& X1,
                                const Eigen::Vector2d& X2, const Eigen::Vector2d& X3);
+/// The same for hinge `h` at the planar positions `xy` (#V × 2).
+HingeReference hinge_reference(const Eigen::Matrix<double, Eigen::Dynamic, 2>& xy, const Hinge& h);
 
 /// Every bending model of the triangle shell depends on the material through the five
 /// parameters (a11, a12, a22, G12, τ): the columns of their derivatives, in this order.

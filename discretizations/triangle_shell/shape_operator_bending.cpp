@@ -62,9 +62,7 @@ using HingeModes = Eigen::Matrix<double, Eigen::Dynamic, 3>;
 HingeModes reference_hinge_modes(const StripTriangulation& tri) {
   HingeModes modes(static_cast<Eigen::Index>(tri.hinges.size()), 3);
   for (size_t h = 0; h < tri.hinges.size(); ++h) {
-    const Hinge& hinge = tri.hinges[h];
-    const auto X = [&](int k) { return Eigen::Vector2d(tri.reference_xy.row(hinge.v[static_cast<size_t>(k)])); };
-    const Eigen::Vector3d m = hinge_reference(X(0), X(1), X(2), X(3)).mode;
+    const Eigen::Vector3d m = hinge_reference(tri.reference_xy, tri.hinges[h]).mode;
     modes.row(static_cast<Eigen::Index>(h)) << -m[0], -m[1], -std::sqrt(2.0) * m[2];
   }
   return modes;

@@ -360,12 +360,7 @@ void TriangleShell::Impl::build_reference_elements(double angle_deg) {
     for (int k = 0; k < 3; ++k) vertex_area[t.faces(f, k)] += cst.back().area / 3.0;
   }
   hinge_weight.reserve(t.hinges.size());
-  for (const Hinge& h : t.hinges) {
-    const auto X = [&](int k) {
-      return Eigen::Vector2d(t.reference_xy.row(h.v[static_cast<size_t>(k)]));
-    };
-    hinge_weight.push_back(hinge_reference(X(0), X(1), X(2), X(3)).weight);
-  }
+  for (const Hinge& h : t.hinges) hinge_weight.push_back(hinge_reference(t.reference_xy, h).weight);
 }
 
 // Clamp hinges: every boundary edge on a selected end line, with the ghost apex the mirror
