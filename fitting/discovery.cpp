@@ -280,8 +280,9 @@ void fit_candidates(const DiscoverWork& work, const DiscoverOptions& options, Di
   }
 }
 
-// The protocol's tensile-curve stages alone, refitted from `params_path` at the screening level
-// (each from the curve the file holds, at its degree): with `raise`, raised from there until a
+// The protocol's tensile-curve stages alone, refitted from `params_path` at `level` (the
+// screening level unless given; each from the curve the file holds, at its degree): with
+// `raise`, raised from there until a
 // raise lowers the error by less than kRicherCurveMinImprovement, up to kMaxCurveDegree, the
 // first raise tried whatever the error (curve-degree's fit); without, as the protocol sets them
 // (a held-out specimen fold's baseline).
@@ -290,7 +291,8 @@ void fit_candidates(const DiscoverWork& work, const DiscoverOptions& options, Di
 // and a null twin's warp stayed 0.80 % against a repeats' scatter of 0.17 % with one degree more
 // (4.6×: `unexplained at warp`, papers/discovery 2026-12-05, misalignment twin 4).
 Options curves_refit_config(const DiscoverWork& work, const std::string& params_path, bool raise,
-                            bool final_curves = false) {
+                            bool final_curves = false, int level = -1) {
+  if (level < 0) level = work.level;
   constexpr double kRaiseAlways = 1e-9;  // a target error no curve reaches: the raise is tried
   Options config = with_effects(work.fit, {}, work.registry);
   std::vector<ComponentChoice> protocol = {start_from_stage(params_path, work.registry)};
@@ -301,7 +303,7 @@ Options curves_refit_config(const DiscoverWork& work, const std::string& params_
       stage.options.set("target_error", kRaiseAlways);
       stage.options.set("min_improvement", kRicherCurveMinImprovement);
     }
-    stage.options.set("level", std::int64_t{work.level});
+    stage.options.set("level", std::int64_t{level});
     protocol.push_back(std::move(stage));
   }
   if (final_curves) {
@@ -310,7 +312,7 @@ Options curves_refit_config(const DiscoverWork& work, const std::string& params_
                         default_options(stages->at(kFinalCurvesStage).options, &work.registry)});
   }
   config.set("protocol", protocol);
-  apply_override(config, fit_config_schema(), &work.registry, fmt::format("resolution.levels={}", work.level + 1));
+  apply_override(config, fit_config_schema(), &work.registry, fmt::format("resolution.levels={}", level + 1));
   return config;
 }
 
@@ -342,11 +344,12 @@ const DiscoverCandidate* measuring_candidate(const Registry& registry, const Dis
   return most;
 }
 
-// `params`' errors on `measure`'s rows, each run at its own best scale (effect-fit `fit: false`).
+// `params`' errors on `measure`'s rows at `level`, each run at its own best scale (effect-fit
+// `fit: false`).
 FitEffect rows_error(const DiscoverWork& work, const MaterialParameters& params, const std::string& measure,
-                     const std::string& what) {
+                     const std::string& what, int level) {
   const std::string path = params_with_effects(params, {measure}, work.file(what + ".yaml"), work.registry);
-  const FitReport r = run_fit(work.dataset, effect_stages_config(work.fit, {measure}, path, work.level, false, work.registry),
+  const FitReport r = run_fit(work.dataset, effect_stages_config(work.fit, {measure}, path, level, false, work.registry),
                               work.registry, {});
   const FitEffect* e = record_of(r.effects, measure);
   if (!e) throw std::logic_error("the evaluation on " + measure + "'s rows ran no effect-fit stage");
@@ -417,34 +420,47 @@ FitEffect curve_degree_record(const FitEffect& without, const FitEffect& with, c
   return e;
 }
 
-// The curve-degree candidate, after the effects (their rows measure it).
+// Where curve-degree is measured: on a tested effect's tensile rows (measuring_candidate);
+// nullptr for the fit runs' loading rows, where there is none (only a cantilever effect or
+// misalignment's validation strips tested) — where the protocol's curves miss by their degree
+// search's target, which `unexplained` must tell from a missing mechanism (measured: a
+// bending-anisotropy null twin read `unexplained at weft` at 5× the repeats' scatter, 2026-12-05).
+const DiscoverCandidate* curve_degree_rows(const DiscoverWork& work, const DiscoverResult& result) {
+  const DiscoverCandidate* measure = measuring_candidate(work.registry, result);
+  return !measure || fits_chord_angles(work.fit, measure->name) ? nullptr : measure;
+}
+
+// Every fitted curve raised from the baseline at `level` (curves_refit_config), and
+// curve-degree's record of it on `measure`'s rows (curve_degree_rows). `what` names the
+// progress lines and scratch files.
+std::pair<FitReport, FitEffect> raise_curves(const DiscoverWork& work, const DiscoverResult& result,
+                                             const DiscoverCandidate* measure, int level, const std::string& what) {
+  const MaterialParameters& baseline = result.baseline.parameters;
+  const std::string start = params_with_effects(baseline, {}, work.file(what + "-start.yaml"), work.registry);
+  FitReport raised = run_fit(work.dataset, curves_refit_config(work, start, true, !measure, level), work.registry,
+                             prefixed(work.progress, what));
+  FitEffect record = !measure ? curve_degree_record(fit_runs_error(result.baseline), fit_runs_error(raised), baseline,
+                                                    raised.parameters)
+                              : curve_degree_record(rows_error(work, baseline, measure->name, what + "-without", level),
+                                                    rows_error(work, raised.parameters, measure->name, what + "-with", level),
+                                                    baseline, raised.parameters);
+  return {std::move(raised), std::move(record)};
+}
+
+// The curve-degree candidate, after the effects (their rows measure it), at the screening level.
 void fit_curve_degree(const DiscoverWork& work, DiscoverResult* result, std::map<std::string, FitReport>* reports) {
   const auto c = std::find_if(result->candidates.begin(), result->candidates.end(), [](const DiscoverCandidate& d) {
     return d.name == kCurveDegreeCandidate && d.status.empty();
   });
   if (c == result->candidates.end()) return;
-  // On a tested effect's tensile rows; without one (only a cantilever effect or misalignment's
-  // validation strips tested), on the fit runs' loading rows — where the protocol's curves miss
-  // by their degree search's target, which `unexplained` must tell from a missing mechanism
-  // (measured: a bending-anisotropy null twin read `unexplained at weft` at 5× the repeats'
-  // scatter, 2026-12-05).
-  const DiscoverCandidate* measure = measuring_candidate(work.registry, *result);
-  const bool on_fit_runs = !measure || fits_chord_angles(work.fit, measure->name);
+  const DiscoverCandidate* measure = curve_degree_rows(work, *result);
   if (work.progress)
     work.progress(0, "candidate curve-degree: every fitted curve raised until its error stops falling, on " +
-                         (on_fit_runs ? std::string("the fit runs' loading rows") : measure->name + "'s rows"));
+                         (measure ? measure->name + "'s rows" : std::string("the fit runs' loading rows")));
   const auto t = Clock::now();
   try {
-    const MaterialParameters& baseline = result->baseline.parameters;
-    const std::string start = params_with_effects(baseline, {}, work.file("curve-degree-start.yaml"), work.registry);
-    FitReport raised = run_fit(work.dataset, curves_refit_config(work, start, true, on_fit_runs), work.registry,
-                               prefixed(work.progress, kCurveDegreeCandidate));
-    c->effect = on_fit_runs
-                    ? curve_degree_record(fit_runs_error(result->baseline), fit_runs_error(raised), baseline,
-                                          raised.parameters)
-                    : curve_degree_record(rows_error(work, baseline, measure->name, "curve-degree-without"),
-                                          rows_error(work, raised.parameters, measure->name, "curve-degree-with"),
-                                          baseline, raised.parameters);
+    auto [raised, record] = raise_curves(work, *result, measure, work.level, kCurveDegreeCandidate);
+    c->effect = std::move(record);
     (*reports)[kCurveDegreeCandidate] = std::move(raised);
   } catch (const std::exception& e) {
     c->status = kFailed;
@@ -663,9 +679,32 @@ void check_held_out(DiscoverWork& work, const JointRefit& joint, DiscoverResult*
   }
 }
 
+// curve-degree named alone, screened below the baseline's finest level: the curves raised again
+// from the baseline at the finest, measured there on the rows it was judged on (the record is
+// the refit's: the gap and refit_resolution are the finest level's). Where that fails, the
+// screening level's raised curves, with a note.
+FitReport refit_curve_degree(DiscoverWork& work, const FitReport& screening, DiscoverResult* result) {
+  if (work.progress)
+    work.progress(0, fmt::format("refit: [curve-degree], from the baseline, at {}", result->baseline.finest_resolution));
+  const auto t = Clock::now();
+  try {
+    auto [raised, record] = raise_curves(work, *result, curve_degree_rows(work, *result), result->baseline.finest_level,
+                                         "refit curve-degree");
+    record.resolution = result->baseline.finest_resolution;
+    raised.effects.push_back(std::move(record));
+    work.timed("refit", t);
+    return raised;
+  } catch (const std::exception& e) {
+    work.timed("refit", t);
+    result->notes.push_back(std::string("curve-degree's refit at the finest level failed, so the named curves are the "
+                                        "screening level's: ") + e.what());
+    return screening;
+  }
+}
+
 // The refit the report gives (result->refit): the joint refit where its effects are still what
-// the judge names (or ties); otherwise the named ones' own — curve-degree's screening fit, a
-// joint refit of two or more, one effect refitted at the finest level, or its screening fit
+// the judge names (or ties); otherwise the named ones' own — curve-degree's raised curves (again
+// at the finest level where it was screened below it: refit_curve_degree), a joint refit of two or more, one effect refitted at the finest level, or its screening fit
 // where that is the finest. The rejected effect of a pair is not in it: params.yaml holds what
 // is named (session 30: a pair's loser, rate-dependence, was in the 75 mm discover's params.yaml).
 void refit_named(DiscoverWork& work, const DiscoverOptions& options, const std::map<std::string, FitReport>& reports,
@@ -677,8 +716,8 @@ void refit_named(DiscoverWork& work, const DiscoverOptions& options, const std::
   result->refit.reset();
   joint = {};
   if (passing == std::vector<std::string>{kCurveDegreeCandidate}) {
-    result->refit = reports.at(kCurveDegreeCandidate);
-    result->notes.push_back("the named richer curves are those of the screening level (curve-degree is not refitted at the finest)");
+    const FitReport& screening = reports.at(kCurveDegreeCandidate);
+    result->refit = work.level < result->baseline.finest_level ? refit_curve_degree(work, screening, result) : screening;
   } else if (passing.size() >= 2 || (passing.size() == 1 && work.level < result->baseline.finest_level)) {
     refit_jointly(work, options, passing, result, &joint);
   } else if (passing.size() == 1) {

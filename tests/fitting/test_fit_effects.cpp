@@ -748,7 +748,7 @@ TEST(Discover, NamesHiddenHysteresisAndShowsTheGapShrink) {
 // A richer elastic curve is a candidate of its own (discover.curve_degree): on data whose warp
 // curve is degree 2 and no effect is on, the tiny protocol's degree-1 curves leave a misfit;
 // one degree more explains it, and no effect may be named for it.
-TEST(Discover, ARicherCurveIsNotPassedOffAsPhysics) {
+DiscoverResult discover_richer_curve(const std::string& name, const std::vector<std::string>& extra = {}) {
   ComponentChoice none = default_choice(registry_category::kEffect, "hysteresis");  // neutral: no friction
   MaterialParameters truth = truth_with(none);
   // Stiffening late (η1 takes Ẽ11², about 0.005 at 5 mm: η1' is 1.1 at 2.5 mm, 2.6 at 5 mm):
@@ -756,17 +756,44 @@ TEST(Discover, ARicherCurveIsNotPassedOffAsPhysics) {
   truth.eta1 = Curve{{0.9, 0.1}, {1.0, 600.0}};
   const std::vector<double> offsets = {0.0, 0.0, 0.0}, scales = {1.12, 0.93, 0.96};
   constexpr double kNoise = 0.005;
-  const std::string folder = write_dataset("discover_richer_curve", truth,
+  const std::string folder = write_dataset(name, truth,
                                            {{"warp", 90, 300, up_and_down(), offsets, scales, kNoise, 1},
                                             {"weft", 0, 300, up_and_down(), offsets, scales, kNoise, 2},
                                             {"bias", 45, 300, up_and_down(), offsets, scales, kNoise, 3}});
   const FitProgress say = [](int, const std::string& line) { std::printf("  %s\n", line.c_str()); };
-  const DiscoverResult r = run_discover(read_dataset(folder), discover_config(), registry(), say);
+  DiscoverResult r = run_discover(read_dataset(folder), discover_config(extra), registry(), say);
   fs::remove_all(folder);
   for (const DiscoverCandidate& c : r.candidates)
-    std::printf("[measured] discover richer curve: %s %s (%s)\n", c.name.c_str(), c.status.c_str(), c.reason.c_str());
+    std::printf("[measured] discover %s: %s %s (%s)\n", name.c_str(), c.name.c_str(), c.status.c_str(), c.reason.c_str());
+  return r;
+}
+
+TEST(Discover, ARicherCurveIsNotPassedOffAsPhysics) {
+  const DiscoverResult r = discover_richer_curve("discover_richer_curve");
   EXPECT_TRUE(std::find(r.named.begin(), r.named.end(), "hysteresis") == r.named.end()) << r.verdict;
   EXPECT_EQ(candidate(r, kCurveDegreeCandidate).status, "named") << candidate(r, kCurveDegreeCandidate).reason;
+}
+
+// Screened at the coarse level (2x3), the named richer curves are raised again from the baseline
+// at the finest (4x6) and measured there: params.yaml's curves and the gap are the finest
+// level's, as a named effect's refit is (refit_curve_degree).
+TEST(Discover, ARicherCurveScreenedCoarseIsRefittedAtTheFinestLevel) {
+  const DiscoverResult r = discover_richer_curve("discover_richer_curve_levels",
+                                                 {"resolution.levels=2", "discover.screening_level=0"});
+  ASSERT_EQ(r.named, std::vector<std::string>{kCurveDegreeCandidate}) << r.verdict;
+  EXPECT_EQ(r.baseline.finest_level, 1);
+  ASSERT_TRUE(r.refit.has_value());
+  ASSERT_EQ(r.refit->effects.size(), 1u);
+  const FitEffect& refit = r.refit->effects.front();
+  EXPECT_EQ(refit.effect, kCurveDegreeCandidate);
+  EXPECT_EQ(refit.resolution, r.baseline.finest_resolution);
+  EXPECT_LT(refit.error_with, refit.error_without);
+  for (const FitCurve& c : r.refit->fit) EXPECT_EQ(c.resolution, r.baseline.finest_resolution) << c.run;
+  for (const std::string& note : r.notes) EXPECT_EQ(note.find("refit at the finest level failed"), std::string::npos) << note;
+  std::printf("[measured] discover richer curve at two levels: %.2f %% -> %.2f %% at %s (screened %.2f %% -> %.2f %%)\n",
+              100 * refit.error_without, 100 * refit.error_with, refit.resolution.c_str(),
+              100 * candidate(r, kCurveDegreeCandidate).effect->error_without,
+              100 * candidate(r, kCurveDegreeCandidate).effect->error_with);
 }
 
 // discover.screening_level: candidates and folds at the ladder's coarsest level (4x6), the named
