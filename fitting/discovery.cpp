@@ -616,6 +616,42 @@ void held_out_folds(DiscoverWork& work, const std::string& effect, const std::ve
   }
 }
 
+// curve-degree's held-out check on the specimen folds: each fold's curves raised from its
+// baseline (fold_baseline) on its own specimens, the fold's baseline and its raised curves
+// judged on the other fold's, on the rows curve-degree was measured on (curve_degree_rows: a
+// tested effect's, held neutral, else the fit runs' loading rows), at the screening level. A
+// richer curve that follows the fitted specimens' scatter does not hold there.
+DiscoverHeldOut curve_degree_held_out(DiscoverWork& work, const DiscoverResult& result) {
+  DiscoverHeldOut out;
+  const std::vector<DiscoverFold> folds = discover_folds(work.dataset, Effect::HeldOut::specimens, &out.held, &out.note);
+  if (folds.empty()) return out;
+  const DiscoverCandidate* measure = curve_degree_rows(work, result);
+  const auto error_on = [&](const Dataset& held, const MaterialParameters& params, const std::string& what) {
+    return measure ? held_out_error(held, work.fit, measure->name, params, work.level, work.file(what + ".yaml"), work.registry)
+                   : fit_runs_error_at(held, work.fit, work.registry, params, work.level);
+  };
+  try {
+    const double weight = 1.0 / static_cast<double>(folds.size());
+    for (const DiscoverFold& f : folds) {
+      const std::string fold = std::string(kCurveDegreeCandidate) + " " + f.name;
+      const MaterialParameters& without = fold_baseline(work, f);
+      const auto t = Clock::now();
+      if (work.progress) work.progress(0, "held-out check " + fold + ": the curves raised on the fold, evaluated on the held-out " + out.held);
+      const std::string start = params_with_effects(without, {}, work.file(fold + " start.yaml"), work.registry);
+      const FitReport with = run_fit(f.fitted, curves_refit_config(work, start, true), work.registry, prefixed(work.progress, fold));
+      out.without += weight * error_on(f.held, without, fold + " without");
+      out.with += weight * error_on(f.held, with.parameters, fold + " with");
+      work.timed("held-out check " + fold, t);
+    }
+  } catch (const std::exception& e) {
+    out.failure = e.what();
+    if (work.progress) work.progress(0, "held-out check curve-degree: failed: " + out.failure);
+    return out;
+  }
+  out.evaluated = true;
+  return out;
+}
+
 }  // namespace
 
 namespace {
@@ -666,11 +702,14 @@ void refit_jointly(DiscoverWork& work, const DiscoverOptions& options, const std
   if (effects.size() >= 2) judge_candidates(options, &result->refit->effects, result, joint->reversed_records());
 }
 
-// The held-out check of each named effect, and of the two a joint refit tied; an effect the
-// pairwise rule rejected gets none (a note says why).
+// The held-out check of each named candidate, and of the two effects a joint refit tied; an
+// effect the pairwise rule rejected gets none (a note says why).
 void check_held_out(DiscoverWork& work, const JointRefit& joint, DiscoverResult* result) {
   for (DiscoverCandidate& c : result->candidates) {
-    if (c.name == kCurveDegreeCandidate) continue;
+    if (c.name == kCurveDegreeCandidate) {
+      if (c.status == kNamed) c.held_out = curve_degree_held_out(work, *result);
+      continue;
+    }
     const bool in_joint = std::find(joint.effects.begin(), joint.effects.end(), c.name) != joint.effects.end();
     if (c.status == kNamed || (in_joint && c.status == kTied))
       c.held_out = held_out_check(work, c);

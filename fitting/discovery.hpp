@@ -89,6 +89,14 @@ std::vector<DiscoverFold> discover_folds(const Dataset& dataset, Effect::HeldOut
 /// with one overhang keeps it in both); none when no bend test has two or more.
 std::vector<DiscoverFold> cantilever_folds(const Dataset& dataset);
 
+/// `params`' mean error (model.md §8) on `dataset`'s fit runs (their loading rows, as `fit`
+/// selects them) simulated at `level`, each run at its own L1-best scale (a held-out
+/// specimen's scale is its own, as in effect-fit's evaluations); `fit`'s effects left out.
+/// curve-degree's held-out rows where it is measured on the fit runs. Throws where a run
+/// cannot be simulated.
+double fit_runs_error_at(const Dataset& dataset, const Options& fit, const Registry& registry,
+                         const MaterialParameters& params, int level);
+
 /// Whether the effect keeps its direction on each fold: in every fold's fit some parameter the
 /// fit on all specimens moved off its neutral value stays off it on the same side (the effect
 /// neither vanishes nor turns round on half of the specimens); `why` names the fold that fails.

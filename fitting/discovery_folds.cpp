@@ -1,5 +1,6 @@
 // The held-out folds of `twill discover` (docs/discovery.md §1, Held out): specimens by the
-// parity of their index, cantilevers by the parity of their overhang, and crosshead speeds.
+// parity of their index, cantilevers by the parity of their overhang, and crosshead speeds;
+// and the fit runs' error on a fold's held-out specimens.
 #include "fitting/discovery_detail.hpp"
 
 #include <fmt/format.h>
@@ -7,6 +8,9 @@
 #include <algorithm>
 
 #include "effects/effect.hpp"
+#include "fitting/fit_config.hpp"
+#include "fitting/fit_context.hpp"
+#include "fitting/strip_curves.hpp"
 
 namespace twill {
 
@@ -114,6 +118,27 @@ std::vector<DiscoverFold> discover_folds(const Dataset& dataset, Effect::HeldOut
     return {};
   }
   return specimen_folds(dataset);
+}
+
+double fit_runs_error_at(const Dataset& dataset, const Options& fit, const Registry& registry,
+                         const MaterialParameters& params, int level) {
+  const FitConfig config = read_fit_config(with_effects(fit, {}, registry));
+  FitContext context(dataset, config, registry, {});
+  context.params = params;
+  select_data(context);
+  std::vector<StripCurves::Request> requests;
+  for (const RunData& d : context.fit_runs) requests.push_back({&d, FitContext::strip_angle(d)});
+  const auto simulated = StripCurves().simulate(context, requests, level);
+  std::vector<double> errors;
+  for (size_t i = 0; i < simulated.size(); ++i) {
+    const RunData& d = context.fit_runs[i];
+    if (!simulated[i]) throw std::runtime_error(FitContext::run_label(d) + " could not be simulated");
+    const Eigen::VectorXd& p = simulated[i]->force_N;
+    const double s = linearised_l1_minimiser(Eigen::VectorXd::Zero(p.size()), p, d.force_N);
+    errors.push_back((s * p - d.force_N).cwiseAbs().sum() / d.force_N.cwiseAbs().sum());
+  }
+  if (errors.empty()) throw std::runtime_error("no fit run to evaluate");
+  return mean(errors);
 }
 
 }  // namespace twill

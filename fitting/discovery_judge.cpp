@@ -245,6 +245,32 @@ std::string why_no_shrink(double factor) {
   return fmt::format("the excess over the floor shrank less than {:g}-fold", factor);
 }
 
+// A passing candidate against its held-out check (DiscoverCandidate::held_out): rejected where
+// the improvement does not hold on the data the fit did not see, or its parameters do not keep
+// their side over the folds; failed where the check could not finish.
+void judge_held_out(const FitEffect& e, DiscoverCandidate* c) {
+  const DiscoverHeldOut& h = c->held_out;
+  if (h.evaluated) {
+    const bool holds = h.with < h.without;
+    c->reason += fmt::format("; held-out {} {:.2f} % without → {:.2f} % with", h.held, 100 * h.without, 100 * h.with);
+    std::string unstable;
+    if (!holds) {
+      c->status = kRejected;
+      c->reason += ": the improvement does not hold on " + h.held + " the fit did not see";
+    } else if (!stable_over_folds(e.parameters, h, &unstable)) {
+      c->status = kRejected;
+      c->reason += "; not stable over the specimen folds: " + unstable;
+    }
+  } else if (!h.failure.empty()) {
+    // Tried and not finished: the improvement is neither confirmed nor refuted, and a model the
+    // specimens of one fold cannot be simulated with is not one to name.
+    c->status = kFailed;
+    c->reason += "; the held-out check failed: " + h.failure;
+  } else if (!h.note.empty()) {
+    c->reason += "; held-out check not made: " + h.note;
+  }
+}
+
 // One candidate's status from its own effect-fit record (`threshold`: α / candidates tested).
 //
 // Every candidate must first face a real misfit (real_misfit): the excess of a baseline at its
@@ -282,6 +308,7 @@ void judge_one(const DiscoverOptions& options, double threshold, const std::map<
     c->status = shrinks ? kNamed : kRejected;
     c->reason = gain + (shrinks ? "; a richer elastic curve explains the misfit"
                                 : ": " + why_no_shrink(options.min_excess_shrink));
+    if (shrinks) judge_held_out(e, c);
     return;
   }
   if (!std::isfinite(e.score)) {
@@ -302,27 +329,7 @@ void judge_one(const DiscoverOptions& options, double threshold, const std::map<
   c->status = shrinks ? kNamed : kRejected;
   c->reason = fmt::format("calibrated p {:.2g} {} α/n = {:.2g}; {}{}", e.score_p_value, "<", threshold, gain,
                           shrinks ? "" : ": " + why_no_shrink(options.min_excess_shrink));
-  if (!shrinks) return;
-  const DiscoverHeldOut& h = c->held_out;
-  if (h.evaluated) {
-    const bool holds = h.with < h.without;
-    c->reason += fmt::format("; held-out {} {:.2f} % without → {:.2f} % with", h.held, 100 * h.without, 100 * h.with);
-    std::string unstable;
-    if (!holds) {
-      c->status = kRejected;
-      c->reason += ": the improvement does not hold on " + h.held + " the fit did not see";
-    } else if (!stable_over_folds(e.parameters, h, &unstable)) {
-      c->status = kRejected;
-      c->reason += "; not stable over the specimen folds: " + unstable;
-    }
-  } else if (!h.failure.empty()) {
-    // Tried and not finished: the improvement is neither confirmed nor refuted, and a model the
-    // specimens of one fold cannot be simulated with is not one to name.
-    c->status = kFailed;
-    c->reason += "; the held-out check failed: " + h.failure;
-  } else if (!h.note.empty()) {
-    c->reason += "; held-out check not made: " + h.note;
-  }
+  if (shrinks) judge_held_out(e, c);
 }
 
 // The excess over the floors a candidate fitted alone leaves (test by test, excess_over_floors),
@@ -496,8 +503,8 @@ OptionSchema discover_config_schema() {
                "named; a candidate without a score test (curve-degree, misalignment) is judged only where there is one")
       .greater_than(1);
   d.add_bool("held_out", DiscoverOptions{}.held_out,
-             "name an effect only if it also lowers the error of specimens its fit did not see (two folds; 4 more "
-             "fits per passing candidate)");
+             "name a candidate (an effect, or the richer curves) only if it also lowers the error of the data its "
+             "fit did not see (two folds; 4 more fits per passing candidate)");
   d.add_int("screening_level", DiscoverOptions{}.screening_level,
             "resolution level the candidates and held-out folds are fitted at (0: the coarsest; capped at the "
             "baseline's finest); named effects are refitted at the baseline's finest level")

@@ -74,8 +74,8 @@ void check_stages(const std::vector<std::unique_ptr<FitStage>>& stages, const Da
                                          "initial guess and the other stiffnesses start from it)");
 }
 
-/// Per tensile test the repeats of §6.4 (fit runs) or every run (validation strips, paper §7,
-/// Table 5 reports per run), as measured points.
+}  // namespace
+
 void select_data(FitContext& context) {
   const FitConfig& config = context.config();
   for (const TensileTest& test : context.dataset().tensile) {
@@ -92,6 +92,8 @@ void select_data(FitContext& context) {
       throw InputError({context.dataset().folder + "/fabric.yaml", 0, "tensile"},
                        fmt::format("the fit needs a {} test (angle_deg: {:g}, role: fit)", stage.label, stage.angle_deg));
 }
+
+namespace {
 
 // Small-strain secant modulus τ·E along the strip [N/m] from the first points: F/(W ε).
 double small_strain_membrane_modulus(const RunData& d) {

@@ -202,6 +202,12 @@ struct FitReport {
 /// weighted median). 0 when every d_i is 0. Exposed for its test.
 double linearised_l1_minimiser(const Eigen::VectorXd& f, const Eigen::VectorXd& d, const Eigen::VectorXd& m);
 
+class FitContext;
+/// The fit's data (run_fit's first step): per tensile test the repeats of §6.4 (fit runs) or
+/// every run (validation strips, paper §7, Table 5 reports per run), as measured points.
+/// Throws InputError where a declared warp stage has no test.
+void select_data(FitContext& context);
+
 /// Runs the protocol. Throws InputError for a dataset the protocol cannot use (e.g. no warp
 /// test) and std::runtime_error when a stage fails outright (the message names the stage).
 /// When it throws and `finished` is given, *finished receives what the stages that finished

@@ -218,6 +218,21 @@ TEST(DiscoverJudge, ARicherCurveThatExplainsTheMisfitTooIsTiedWithTheEffect) {
   EXPECT_EQ(judged({fitted("hysteresis", 1e-4, 0.08, 0.012), curve}).named, std::vector<std::string>{"hysteresis"});
 }
 
+// The richer curves face the held-out specimens as an effect does (since session 34): raised on
+// one fold, they must lower the other fold's error; a check that did not finish names nothing.
+TEST(DiscoverJudge, ARicherCurveIsNamedOnlyWhereItHoldsOnHeldOutSpecimens) {
+  DiscoverCandidate curve = fitted(kCurveDegreeCandidate, std::numeric_limits<double>::quiet_NaN(), 0.08, 0.012);
+  curve.held_out = {true, 0.07, 0.015, ""};
+  EXPECT_EQ(judged({curve}).named, std::vector<std::string>{kCurveDegreeCandidate});
+  curve.held_out = {true, 0.07, 0.072, ""};  // follows the fitted specimens' scatter
+  const DiscoverResult scatter = judged({curve});
+  EXPECT_TRUE(scatter.named.empty());
+  EXPECT_EQ(scatter.candidates[0].status, "rejected");
+  EXPECT_NE(scatter.candidates[0].reason.find("does not hold on specimens"), std::string::npos) << scatter.candidates[0].reason;
+  curve.held_out = {false, 0, 0, "", {}, "warp-2: step 3 of 10 did not converge"};
+  EXPECT_EQ(judged({curve}).candidates[0].status, "failed");
+}
+
 // The excess over the floor is judged test by test. Poisson's 20 % null twin 2 (session 27)
 // named curve-degree on its mean error, 4.48 → 2.25 % against a mean floor of 3.73 %: the
 // weft lateral strain, already within the curves' level at 20 %, fell 14.19 → 3.69 % under its
