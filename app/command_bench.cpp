@@ -76,6 +76,67 @@ Options bench_options(const RegistryEntry& entry, Registry& registry, const std:
   return options;
 }
 
+/// Every listed discretisation's options (BenchArgs::options applied where its schema has the
+/// key); the listed ones are every registered one when none is. An assignment no listed
+/// discretisation has is an InputError.
+std::map<std::string, Options> listed_options(BenchArgs& args, const DiscretizationFactories& category, Registry& registry) {
+  if (args.discretizations.empty())
+    for (const auto& entry : category.entries()) args.discretizations.push_back(entry.name);
+  std::map<std::string, int> used;
+  std::map<std::string, Options> options;
+  for (const std::string& name : args.discretizations)
+    options[name] = bench_options(category.at(name), registry, args.options, &used);
+  for (const std::string& a : args.options)
+    if (!used.count(a))
+      throw InputError({"command line", 0, "--option"}, "no listed discretization has the option in '" + a + "'");
+  return options;
+}
+
+/// The cheapest resolution of one curve and discretisation that meets its target.
+struct Best {
+  std::string resolution;  ///< empty: none did
+  double curve_s = 0, error = 0;
+};
+
+/// One reference curve with one discretisation at every resolution, a table row each.
+Best bench_curve(const std::string& label, const TensileRun& ref, const std::string& name, const Options& chosen,
+                 const std::vector<std::string>& resolutions, const DiscretizationFactories& category,
+                 const MaterialParameters& p) {
+  Best best;
+  for (const std::string& res : resolutions) {
+    TensileSetup setup;
+    setup.angle_deg = label_angle_deg(label);
+    std::tie(setup.cells_across, setup.cells_along) = parse_resolution(res, "--resolution");
+    TensileExperiment experiment(
+        setup, [&](const StripSpec& s, const MaterialParameters& m) { return category.create(name, chosen, s, m); }, p);
+    const TensileCurve curve = experiment.run(ref.extension_mm);
+    // Worst relative deviation, with its sign (+: stiffer than the reference), so that a
+    // refinement study can tell convergence from a change of side.
+    const double signed_worst = reference_errors(curve, ref.force_N).worst;
+    const double worst = std::abs(signed_worst);
+    const double n = static_cast<double>(std::max<size_t>(curve.points.size(), 1));
+    std::printf("%-18s %-7s %-6s %7zu %9.3f %10.2f %9.2f %9.3f %10d %9.1f%s\n", name.c_str(), res.c_str(), label.c_str(),
+                curve.points.size(), curve.wall_time_s, 1e3 * curve.wall_time_s / n, curve.newton_iterations / n,
+                100 * signed_worst, experiment.discretization().num_dofs(), peak_memory_mb(),
+                curve.completed ? "" : "  (stopped early)");
+    std::fflush(stdout);
+    const bool passes = curve.completed && worst < target_error(label);
+    if (passes && (best.resolution.empty() || curve.wall_time_s < best.curve_s)) best = {res, curve.wall_time_s, worst};
+  }
+  return best;
+}
+
+void print_summary(const std::vector<std::pair<std::string, Best>>& summary) {
+  std::printf("\ncheapest resolution within the target (2 %% warp/weft, 4 %% off-axis, points > 1 N):\n");
+  for (const auto& [what, best] : summary) {
+    if (best.resolution.empty())
+      std::printf("  %-34s none of the resolutions run\n", what.c_str());
+    else
+      std::printf("  %-34s %-7s %.3f %% in %.3f s per curve\n", what.c_str(), best.resolution.c_str(), 100 * best.error,
+                  best.curve_s);
+  }
+}
+
 }  // namespace
 
 void add_bench_command(CLI::App& app, Context& context) {
@@ -96,63 +157,18 @@ void add_bench_command(CLI::App& app, Context& context) {
     for (const std::string& label : args->labels) label_angle_deg(label);
     const std::filesystem::path folder(args->reference);
     const MaterialParameters p = read_params_file((folder / "params.yaml").string(), &context.registry);
-    auto& category = context.registry.category<DiscretizationFactories>(registry_category::kDiscretization);
-    if (args->discretizations.empty())
-      for (const auto& entry : category.entries()) args->discretizations.push_back(entry.name);
-    std::map<std::string, int> used;
-    std::map<std::string, Options> options;
-    for (const std::string& name : args->discretizations)
-      options[name] = bench_options(category.at(name), context.registry, args->options, &used);
-    for (const std::string& a : args->options)
-      if (!used.count(a))
-        throw InputError({"command line", 0, "--option"}, "no listed discretization has the option in '" + a + "'");
-
-    struct Best {
-      std::string resolution;
-      double curve_s = 0, error = 0;
-    };
+    const auto& category = context.registry.category<DiscretizationFactories>(registry_category::kDiscretization);
+    const std::map<std::string, Options> options = listed_options(*args, category, context.registry);
     std::vector<std::pair<std::string, Best>> summary;  // "label name" → cheapest passing
     std::printf("%-18s %-7s %-6s %7s %9s %10s %9s %9s %10s %9s\n", "discretization", "res", "curve", "points",
                 "curve_s", "solve_ms", "newton/pt", "worst_err%", "dofs", "peak_MB");
     for (const std::string& label : args->labels) {
       const TensileRun ref = read_tensile_run_csv((folder / ("tensile-" + label + ".csv")).string());
-      const double angle = label_angle_deg(label);
-      for (const std::string& name : args->discretizations) {
-        Best best;
-        for (const std::string& res : args->resolutions) {
-          TensileSetup setup;
-          setup.angle_deg = angle;
-          std::tie(setup.cells_across, setup.cells_along) = parse_resolution(res, "--resolution");
-          const Options& chosen = options.at(name);
-          TensileExperiment experiment(
-              setup, [&](const StripSpec& s, const MaterialParameters& m) { return category.create(name, chosen, s, m); },
-              p);
-          const TensileCurve curve = experiment.run(ref.extension_mm);
-          // Worst relative deviation, with its sign (+: stiffer than the reference), so that a
-          // refinement study can tell convergence from a change of side.
-          const double signed_worst = reference_errors(curve, ref.force_N).worst;
-          const double worst = std::abs(signed_worst);
-          const double n = static_cast<double>(std::max<size_t>(curve.points.size(), 1));
-          std::printf("%-18s %-7s %-6s %7zu %9.3f %10.2f %9.2f %9.3f %10d %9.1f%s\n", name.c_str(), res.c_str(),
-                      label.c_str(), curve.points.size(), curve.wall_time_s, 1e3 * curve.wall_time_s / n,
-                      curve.newton_iterations / n, 100 * signed_worst, experiment.discretization().num_dofs(), peak_memory_mb(),
-                      curve.completed ? "" : "  (stopped early)");
-          std::fflush(stdout);
-          const bool passes = curve.completed && worst < target_error(label);
-          if (passes && (best.resolution.empty() || curve.wall_time_s < best.curve_s))
-            best = {res, curve.wall_time_s, worst};
-        }
-        summary.emplace_back(label + " " + name, best);
-      }
+      for (const std::string& name : args->discretizations)
+        summary.emplace_back(label + " " + name,
+                             bench_curve(label, ref, name, options.at(name), args->resolutions, category, p));
     }
-    std::printf("\ncheapest resolution within the target (2 %% warp/weft, 4 %% off-axis, points > 1 N):\n");
-    for (const auto& [what, best] : summary) {
-      if (best.resolution.empty())
-        std::printf("  %-34s none of the resolutions run\n", what.c_str());
-      else
-        std::printf("  %-34s %-7s %.3f %% in %.3f s per curve\n", what.c_str(), best.resolution.c_str(),
-                    100 * best.error, best.curve_s);
-    }
+    print_summary(summary);
   });
 }
 

@@ -85,6 +85,29 @@ void ConstrainedDofs::gather_free_rows(const Eigen::MatrixXd& full, Eigen::Matri
   }
 }
 
+namespace {
+
+// A CSC pattern of explicit zeros from its arrays.
+ConstrainedDofs::SparseMatrix zero_pattern(int rows, int cols, const std::vector<int>& outer,
+                                           const std::vector<int>& inner) {
+  const std::vector<double> zeros(inner.size(), 0.0);
+  return Eigen::Map<const ConstrainedDofs::SparseMatrix>(rows, cols, static_cast<Eigen::Index>(inner.size()), outer.data(), inner.data(),
+                                        zeros.data());
+}
+
+// A CSC block under construction: its row indices, and for each entry the Hessian entry it is
+// copied from (-1: an inserted zero).
+struct BlockPattern {
+  std::vector<int> outer, inner, source;
+  void add(int row, int from) {
+    inner.push_back(row);
+    source.push_back(from);
+  }
+  int size() const { return static_cast<int>(inner.size()); }
+};
+
+}  // namespace
+
 void ConstrainedDofs::analyze(const SparseMatrix& hessian) {
   if (hessian.rows() != num_dofs_ || hessian.cols() != num_dofs_) {
     throw std::invalid_argument("ConstrainedDofs::analyze: Hessian is " +
@@ -102,58 +125,34 @@ void ConstrainedDofs::analyze(const SparseMatrix& hessian) {
 
   const int nf = num_free();
   const int nc = num_fixed();
-  // K_ff in CSC. free_index_ is increasing in the dof, so rows stay sorted within a column;
-  // a missing diagonal is inserted at its sorted place.
-  std::vector<int> ff_outer(static_cast<size_t>(nf) + 1, 0), ff_inner;
-  free_free_source_.clear();
+  BlockPattern ff{std::vector<int>(static_cast<size_t>(nf) + 1, 0), {}, {}};
+  BlockPattern fc{std::vector<int>(static_cast<size_t>(nc) + 1, 0), {}, {}};
   free_free_diagonal_.assign(static_cast<size_t>(nf), -1);
-  std::vector<int> fc_outer(static_cast<size_t>(nc) + 1, 0), fc_inner;
-  free_fixed_source_.clear();
   for (int col = 0; col < num_dofs_; ++col) {
     const int jf = free_index(col);
-    const int jc = fixed_index(col);
-    bool diagonal_done = false;
+    if (jf < 0) {
+      for (int p = outer[col]; p < outer[col + 1]; ++p)
+        if (const int row = free_index(inner[p]); row >= 0) fc.add(row, p);
+      fc.outer[static_cast<size_t>(fixed_index(col)) + 1] = fc.size();
+      continue;
+    }
+    // K_ff's column jf. free_index_ is increasing in the dof, so rows stay sorted within a
+    // column; a missing diagonal is inserted (an explicit zero) at its sorted place.
+    int& diagonal = free_free_diagonal_[static_cast<size_t>(jf)];
     for (int p = outer[col]; p < outer[col + 1]; ++p) {
-      const int row_free = free_index(inner[p]);
-      if (row_free < 0) continue;
-      if (jf >= 0) {
-        if (!diagonal_done && row_free >= jf) {
-          if (row_free > jf) {  // the diagonal is missing: insert an explicit zero
-            free_free_diagonal_[static_cast<size_t>(jf)] = static_cast<int>(ff_inner.size());
-            ff_inner.push_back(jf);
-            free_free_source_.push_back(-1);
-          }
-          diagonal_done = true;
-        }
-        if (row_free == jf) {
-          free_free_diagonal_[static_cast<size_t>(jf)] = static_cast<int>(ff_inner.size());
-        }
-        ff_inner.push_back(row_free);
-        free_free_source_.push_back(p);
-      } else {
-        fc_inner.push_back(row_free);
-        free_fixed_source_.push_back(p);
-      }
+      const int row = free_index(inner[p]);
+      if (row < 0) continue;
+      if (diagonal < 0 && row > jf) diagonal = ff.size(), ff.add(jf, -1);
+      if (row == jf) diagonal = ff.size();
+      ff.add(row, p);
     }
-    if (jf >= 0) {
-      if (!diagonal_done) {
-        free_free_diagonal_[static_cast<size_t>(jf)] = static_cast<int>(ff_inner.size());
-        ff_inner.push_back(jf);
-        free_free_source_.push_back(-1);
-      }
-      ff_outer[static_cast<size_t>(jf) + 1] = static_cast<int>(ff_inner.size());
-    } else {
-      fc_outer[static_cast<size_t>(jc) + 1] = static_cast<int>(fc_inner.size());
-    }
+    if (diagonal < 0) diagonal = ff.size(), ff.add(jf, -1);
+    ff.outer[static_cast<size_t>(jf) + 1] = ff.size();
   }
-  const std::vector<double> ff_zeros(ff_inner.size(), 0.0);
-  free_free_pattern_ =
-      Eigen::Map<const SparseMatrix>(nf, nf, static_cast<Eigen::Index>(ff_inner.size()),
-                                     ff_outer.data(), ff_inner.data(), ff_zeros.data());
-  const std::vector<double> fc_zeros(fc_inner.size(), 0.0);
-  free_fixed_pattern_ =
-      Eigen::Map<const SparseMatrix>(nf, nc, static_cast<Eigen::Index>(fc_inner.size()),
-                                     fc_outer.data(), fc_inner.data(), fc_zeros.data());
+  free_free_source_ = std::move(ff.source);
+  free_fixed_source_ = std::move(fc.source);
+  free_free_pattern_ = zero_pattern(nf, nf, ff.outer, ff.inner);
+  free_fixed_pattern_ = zero_pattern(nf, nc, fc.outer, fc.inner);
   analyzed_ = true;
 }
 

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <system_error>
 
 #include "core/input_error.hpp"
@@ -361,71 +362,89 @@ std::string default_test_label(double angle_deg) {
   return label;
 }
 
+namespace {
+
+// A tensile CSV's header: which column gives each quantity (-1: none) and its unit factor.
+struct CsvColumns {
+  std::vector<std::string> cells;
+  int line = 0;
+  int column[kNumQuantities] = {-1, -1, -1, -1};
+  double factor[kNumQuantities] = {1, 1, 1, 1};
+};
+
+// The header at `line`: each quantity's column (a quantity given twice is an error), the
+// extension and the force required.
+CsvColumns read_csv_header(const std::string& path, std::vector<std::string> cells, int line) {
+  CsvColumns h;
+  h.cells = std::move(cells);
+  h.line = line;
+  for (int q = 0; q < kNumQuantities; ++q) {
+    for (std::size_t c = 0; c < h.cells.size(); ++c) {
+      double f = 1.0;
+      if (!matches(split_header(h.cells[c]), static_cast<Quantity>(q), f)) continue;
+      if (h.column[q] >= 0)
+        throw InputError({path, line, h.cells[c]},
+                         std::string("two columns give the ") + quantity_name(static_cast<Quantity>(q)) + ": '" +
+                             h.cells[static_cast<std::size_t>(h.column[q])] + "' and '" + h.cells[c] + "'");
+      h.column[q] = static_cast<int>(c);
+      h.factor[q] = f;
+    }
+  }
+  for (Quantity q : {Quantity::Extension, Quantity::Force}) {
+    if (h.column[static_cast<int>(q)] >= 0) continue;
+    std::string accepted;
+    for (const auto& n : names_of(q)) accepted += (accepted.empty() ? "" : ", ") + n;
+    throw InputError({path, line, ""}, std::string("missing required ") + quantity_name(q) +
+                                           " column (header names accepted, " +
+                                           "case-insensitive, unit as _suffix or in parentheses: " + accepted + ")");
+  }
+  return h;
+}
+
+// A data row at `line` into `run`: as many cells as the header, each read quantity a finite
+// number (a force within limits::kForceMagnitude), in SI-like units (mm, N, s, 1).
+void read_csv_row(const std::string& path, const CsvColumns& h, const std::vector<std::string>& cells, int line,
+                  TensileRun* run) {
+  std::vector<double>* target[kNumQuantities] = {&run->extension_mm, &run->force_N, &run->time_s, &run->lateral_strain};
+  if (cells.size() != h.cells.size())
+    throw InputError({path, line, ""}, "row has " + std::to_string(cells.size()) + " cells, the header (line " +
+                                           std::to_string(h.line) + ") has " + std::to_string(h.cells.size()));
+  for (int q = 0; q < kNumQuantities; ++q) {
+    if (h.column[q] < 0) continue;
+    const auto c = static_cast<std::size_t>(h.column[q]);
+    const auto value = parse_cell(cells[c]);
+    if (!value) throw InputError({path, line, excerpt(h.cells[c])}, "not a finite number: '" + excerpt(cells[c]) + "'");
+    if (q == static_cast<int>(Quantity::Force)) {
+      const std::string violation = range_violation(*value * h.factor[q], limits::kForceMagnitude);
+      if (!violation.empty()) throw InputError({path, line, excerpt(h.cells[c])}, violation);
+    }
+    target[q]->push_back(*value * h.factor[q]);
+  }
+  run->row_line.push_back(line);
+}
+
+}  // namespace
+
 TensileRun read_tensile_run_csv(const std::string& path) {
   check_readable_file(path);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError({path, 0, ""}, "cannot open file");
   TensileRun run;
   run.path = path;
-
   std::string line;
   int line_number = 0;
-  std::vector<std::string> header;
-  int header_line = 0;
-  int column[kNumQuantities] = {-1, -1, -1, -1};
-  double factor[kNumQuantities] = {1, 1, 1, 1};
-  std::vector<double>* target[kNumQuantities] = {&run.extension_mm, &run.force_N, &run.time_s, &run.lateral_strain};
-
+  std::optional<CsvColumns> header;
   while (std::getline(in, line)) {
     ++line_number;
     if (line_number == 1 && line.rfind("\xEF\xBB\xBF", 0) == 0) line.erase(0, 3);  // UTF-8 BOM
     if (skipped_line(line)) continue;
-    const auto cells = split_cells(line);
-    if (header.empty()) {
-      header = cells;
-      header_line = line_number;
-      for (int q = 0; q < kNumQuantities; ++q) {
-        for (std::size_t c = 0; c < header.size(); ++c) {
-          double f = 1.0;
-          if (!matches(split_header(header[c]), static_cast<Quantity>(q), f)) continue;
-          if (column[q] >= 0)
-            throw InputError({path, header_line, header[c]},
-                             std::string("two columns give the ") + quantity_name(static_cast<Quantity>(q)) + ": '" +
-                                 header[static_cast<std::size_t>(column[q])] + "' and '" + header[c] + "'");
-          column[q] = static_cast<int>(c);
-          factor[q] = f;
-        }
-      }
-      for (Quantity q : {Quantity::Extension, Quantity::Force}) {
-        if (column[static_cast<int>(q)] >= 0) continue;
-        std::string accepted;
-        for (const auto& n : names_of(q)) accepted += (accepted.empty() ? "" : ", ") + n;
-        throw InputError({path, header_line, ""},
-                         std::string("missing required ") + quantity_name(q) + " column (header names accepted, " +
-                             "case-insensitive, unit as _suffix or in parentheses: " + accepted + ")");
-      }
-      continue;
-    }
-    if (cells.size() != header.size())
-      throw InputError({path, line_number, ""}, "row has " + std::to_string(cells.size()) + " cells, the header (line " +
-                                                    std::to_string(header_line) + ") has " +
-                                                    std::to_string(header.size()));
-    for (int q = 0; q < kNumQuantities; ++q) {
-      if (column[q] < 0) continue;
-      const auto c = static_cast<std::size_t>(column[q]);
-      const auto value = parse_cell(cells[c]);
-      if (!value)
-        throw InputError({path, line_number, excerpt(header[c])}, "not a finite number: '" + excerpt(cells[c]) + "'");
-      if (q == static_cast<int>(Quantity::Force)) {
-        const std::string violation = range_violation(*value * factor[q], limits::kForceMagnitude);
-        if (!violation.empty()) throw InputError({path, line_number, excerpt(header[c])}, violation);
-      }
-      target[q]->push_back(*value * factor[q]);
-    }
-    run.row_line.push_back(line_number);
+    if (!header)
+      header = read_csv_header(path, split_cells(line), line_number);
+    else
+      read_csv_row(path, *header, split_cells(line), line_number, &run);
   }
-  if (header.empty()) throw InputError({path, 0, ""}, "empty file: no header line");
-  if (run.extension_mm.empty()) throw InputError({path, header_line, ""}, "no data rows after the header");
+  if (!header) throw InputError({path, 0, ""}, "empty file: no header line");
+  if (run.extension_mm.empty()) throw InputError({path, header->line, ""}, "no data rows after the header");
   if (run.size() < 2)
     throw InputError({path, run.row_line[0], ""}, "only one data row: a force-extension curve needs at least 2");
   find_loading_peak(run);

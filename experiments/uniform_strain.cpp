@@ -75,64 +75,59 @@ struct Residual {
   double value = 0, derivative = 0, noise_scale = 0;
 };
 
-/// Root of f, increasing through it, on (lower_limit, ∞): Newton's method safeguarded by a
-/// bisection bracket (Numerical Recipes §9.4 "rtsafe"). `f(x)` returns a Residual; a
-/// non-finite value aborts. A bracket is found first by stepping from x0 along the Newton
-/// direction (1.5× the Newton step, doubling), approaching lower_limit by halving the gap.
-/// Stops at machine precision: |f| ≤ 4ε·noise_scale, a step below 2ε|x|, or a bracket of
-/// width 2ε|x|.
+/// Whether a residual is zero to machine precision.
+bool at_root(const Residual& v) { return std::abs(v.value) <= 4.0 * kEps * v.noise_scale; }
+
+/// Two points where f has opposite signs, with their residuals (safeguarded_newton's first
+/// phase); `root` set where a trial was a root already, `failure` where none was found.
+struct Bracket {
+  double a = 0, b = 0;
+  Residual va, vb;
+  std::optional<double> root;
+  std::string failure;
+};
+
+/// From x0 (f(x0) = v0, not a root) along the Newton direction: the first trial 1.5× the Newton
+/// step (at least a few ulps of x0, so that it moves x), then the step doubles; a step past
+/// lower_limit halves the gap to it instead.
 template <class Function>
-ScalarRoot safeguarded_newton(Function&& f, double x0, double lower_limit) {
-  ScalarRoot r;
-  auto fail = [&r](const std::string& message) {
-    r.message = message;
-    return r;
-  };
-  auto at_root = [](const Residual& v) { return std::abs(v.value) <= 4.0 * kEps * v.noise_scale; };
-  const Residual v0 = f(x0);
-  r.x = x0;
-  if (!std::isfinite(v0.value)) return fail("non-finite residual at the start");
-  if (at_root(v0)) {
-    r.converged = true;
-    return r;
-  }
-  // Bracket [lo, hi] with f(lo) < 0 < f(hi). The first trial is 1.5× the Newton step (at
-  // least a few ulps of x0, so that it moves x), then the step doubles.
+Bracket bracket_root(Function& f, double x0, const Residual& v0, double lower_limit) {
   const bool newton_ok = v0.derivative > 0 && std::isfinite(v0.derivative);
-  double step = newton_ok ? -1.5 * v0.value / v0.derivative
-                          : std::copysign(std::max(std::abs(x0), 1e-3), -v0.value);
+  double step = newton_ok ? -1.5 * v0.value / v0.derivative : std::copysign(std::max(std::abs(x0), 1e-3), -v0.value);
   step = std::copysign(std::max(std::abs(step), 8.0 * kEps * std::abs(x0)), step);
-  double a = x0, b = x0;
-  Residual va = v0, vb = v0;
-  bool bracketed = false;
-  for (int i = 0; i < 200 && !bracketed; ++i) {
-    b = a + step;
-    if (b <= lower_limit) b = lower_limit + 0.5 * (a - lower_limit);
-    vb = f(b);
-    if (!std::isfinite(vb.value)) return fail("non-finite residual while bracketing");
-    if (at_root(vb)) {
-      r.x = b;
-      r.converged = true;
-      return r;
+  Bracket br{x0, x0, v0, v0, std::nullopt, ""};
+  for (int i = 0; i < 200; ++i) {
+    br.b = br.a + step;
+    if (br.b <= lower_limit) br.b = lower_limit + 0.5 * (br.a - lower_limit);
+    br.vb = f(br.b);
+    if (!std::isfinite(br.vb.value)) {
+      br.failure = "non-finite residual while bracketing";
+      return br;
     }
-    if ((vb.value > 0) != (va.value > 0)) {
-      bracketed = true;
-    } else {
-      a = b, va = vb;
-      step *= 2.0;
+    if (at_root(br.vb)) {
+      br.root = br.b;
+      return br;
     }
+    if ((br.vb.value > 0) != (br.va.value > 0)) return br;
+    br.a = br.b, br.va = br.vb;
+    step *= 2.0;
   }
-  if (!bracketed) return fail("no sign change of the lateral traction found");
-  double lo = va.value < 0 ? a : b, hi = va.value < 0 ? b : a;
-  const bool start_at_a = std::abs(va.value) < std::abs(vb.value);
-  double x = start_at_a ? a : b;
-  Residual vx = start_at_a ? va : vb;
-  // Newton is taken when it stays inside the bracket and its step is at most half the step
-  // before last (else bisection): the bracket then shrinks at least linearly.
+  br.failure = "no sign change of the lateral traction found";
+  return br;
+}
+
+/// Newton inside a bracket of f's root, taken when it stays inside and its step is at most half
+/// the step before last (else bisection): the bracket then shrinks at least linearly. Starts at
+/// the bracket's end of smaller |f|; `r` is returned with its x where f turns non-finite.
+template <class Function>
+ScalarRoot refine_in_bracket(Function& f, const Bracket& br, ScalarRoot r) {
+  double lo = br.va.value < 0 ? br.a : br.b, hi = br.va.value < 0 ? br.b : br.a;
+  const bool start_at_a = std::abs(br.va.value) < std::abs(br.vb.value);
+  double x = start_at_a ? br.a : br.b;
+  Residual vx = start_at_a ? br.va : br.vb;
   double step_before_last = hi - lo, last_step = hi - lo;
   for (int i = 0; i < 200; ++i) {
-    const double newton = vx.derivative > 0 ? x - vx.value / vx.derivative
-                                            : std::numeric_limits<double>::quiet_NaN();
+    const double newton = vx.derivative > 0 ? x - vx.value / vx.derivative : std::numeric_limits<double>::quiet_NaN();
     const bool use_newton = std::isfinite(newton) && newton > lo && newton < hi &&
                             std::abs(newton - x) <= 0.5 * std::abs(step_before_last);
     const double next = use_newton ? newton : lo + 0.5 * (hi - lo);
@@ -145,7 +140,10 @@ ScalarRoot safeguarded_newton(Function&& f, double x0, double lower_limit) {
     }
     x = next;
     vx = f(x);
-    if (!std::isfinite(vx.value)) return fail("non-finite residual in the safeguarded Newton solve");
+    if (!std::isfinite(vx.value)) {
+      r.message = "non-finite residual in the safeguarded Newton solve";
+      return r;
+    }
     if (at_root(vx) || std::abs(last_step) <= 2.0 * kEps * std::abs(x) ||
         hi - lo <= 2.0 * kEps * std::max(std::abs(lo), std::abs(hi))) {
       r.x = x;
@@ -155,7 +153,39 @@ ScalarRoot safeguarded_newton(Function&& f, double x0, double lower_limit) {
     (vx.value < 0 ? lo : hi) = x;
   }
   r.x = x;
-  return fail("lateral solve did not reach machine precision in 200 iterations");
+  r.message = "lateral solve did not reach machine precision in 200 iterations";
+  return r;
+}
+
+/// Root of f, increasing through it, on (lower_limit, ∞): Newton's method safeguarded by a
+/// bisection bracket (Numerical Recipes §9.4 "rtsafe"). `f(x)` returns a Residual; a
+/// non-finite value aborts. A bracket is found first by stepping from x0 along the Newton
+/// direction (bracket_root), then narrowed (refine_in_bracket). Stops at machine precision:
+/// |f| ≤ 4ε·noise_scale, a step below 2ε|x|, or a bracket of width 2ε|x|.
+template <class Function>
+ScalarRoot safeguarded_newton(Function&& f, double x0, double lower_limit) {
+  ScalarRoot r;
+  r.x = x0;
+  const Residual v0 = f(x0);
+  if (!std::isfinite(v0.value)) {
+    r.message = "non-finite residual at the start";
+    return r;
+  }
+  if (at_root(v0)) {
+    r.converged = true;
+    return r;
+  }
+  const Bracket br = bracket_root(f, x0, v0, lower_limit);
+  if (br.root) {
+    r.x = *br.root;
+    r.converged = true;
+    return r;
+  }
+  if (!br.failure.empty()) {
+    r.message = br.failure;
+    return r;
+  }
+  return refine_in_bracket(f, br, r);
 }
 
 /// The lateral equilibrium of a uniform-strain strip at a fixed axial strain E_xx: ∂ψ/∂E_yy = 0,

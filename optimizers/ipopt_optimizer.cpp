@@ -322,33 +322,80 @@ Options IpoptOptimizer::resolved_options() const {
   return options_of(ipopt_option_bindings(), options_);
 }
 
+namespace {
+
+// Ipopt's options from twill's (false where Ipopt rejects one).
+bool set_ipopt_options(Ipopt::OptionsList& ipopt, const IpoptOptions& options, ProblemTnlp& tnlp) {
+  // Ipopt requires positive tolerances; a zero gradient_tolerance means "as tight as possible".
+  const double tolerance = std::max(options.gradient_tolerance, 1e-300);
+  bool ok = true;
+  ok &= ipopt.SetStringValue("sb", "yes");  // no banner
+  ok &= ipopt.SetIntegerValue("print_level", options.print_level);
+  ok &= ipopt.SetStringValue("hessian_approximation", "limited-memory");
+  ok &= ipopt.SetIntegerValue("limited_memory_max_history", options.limited_memory_max_history);
+  ok &= ipopt.SetNumericValue("tol", tolerance);
+  ok &= ipopt.SetNumericValue("dual_inf_tol", tolerance);
+  // No "acceptable" early exit: tolerances mean what the options say.
+  ok &= ipopt.SetIntegerValue("acceptable_iter", 0);
+  ok &= ipopt.SetIntegerValue("max_iter", options.max_iterations);
+  // Ipopt relaxes bounds by 1e-8 (relative) by default; twill's problems may be undefined
+  // outside their box (e.g. a negative stiffness), so evaluations stay inside it.
+  ok &= ipopt.SetNumericValue("bound_relax_factor", 0.0);
+  ok &= ipopt.SetStringValue("mu_strategy", options.mu_strategy);
+  ok &= ipopt.SetStringValue("nlp_scaling_method", options.nlp_scaling_method);
+  ok &= ipopt.SetNumericValue("nlp_scaling_max_gradient", kScalingMaxGradient);
+  ok &= ipopt.SetNumericValue("limited_memory_init_val",
+                              tnlp.first_step_init_val(options.nlp_scaling_method == "gradient-based"));
+  return ok;
+}
+
+// The status, message and point of a finished solve: a stop twill asked for (with its current
+// point), else Ipopt's own status and final point; the best evaluated point where there is none.
+void take_outcome(const ProblemTnlp& tnlp, Ipopt::ApplicationReturnStatus status, const CountedProblem& problem,
+                  OptimizerResult& result) {
+  if (tnlp.stop()) {
+    result.status = tnlp.stop()->status;
+    result.message = tnlp.stop()->message;
+    if (tnlp.current()) {
+      result.x = tnlp.current()->x;
+    } else if (problem.has_best()) {
+      result.x = problem.best_x();
+    }
+  } else {
+    result.status = map_status(status);
+    result.message = "Ipopt: " + status_name(status);
+    if (tnlp.final_x()) {
+      result.x = *tnlp.final_x();
+    } else if (problem.has_best()) {
+      result.x = problem.best_x();
+    }
+  }
+}
+
+// The final value and projected gradient norm at result.x. Ipopt can end at a trial point whose
+// evaluation failed (no value, no gradient; seen on the poplin example, where it crashed here):
+// the best evaluated point is reported instead.
+void summarise_final_point(const ProblemTnlp& tnlp, const CountedProblem& problem, OptimizerResult& result) {
+  const auto* at = tnlp.cached(result.x);
+  if (at && !std::isfinite(at->value) && problem.has_best()) {
+    result.x = problem.best_x();
+    at = tnlp.cached(result.x);
+  }
+  if (at && std::isfinite(at->value) && at->gradient.size() == at->x.size()) {
+    result.summary.final_value = at->value;
+    result.summary.final_gradient_norm = projected_gradient_norm(at->x, at->gradient, problem.lower(), problem.upper());
+  } else if (tnlp.final_x() && result.x == *tnlp.final_x()) {
+    result.summary.final_value = tnlp.final_value();
+  }
+}
+
+}  // namespace
+
 void IpoptOptimizer::run(CountedProblem& problem, Eigen::VectorXd x0,
                          OptimizerResult& result) const {
   Ipopt::SmartPtr<Ipopt::IpoptApplication> app = IpoptApplicationFactory();
-  Ipopt::SmartPtr<Ipopt::OptionsList> ipopt_options = app->Options();
-  // Ipopt requires positive tolerances; a zero gradient_tolerance means "as tight as possible".
-  const double tolerance = std::max(options_.gradient_tolerance, 1e-300);
-  bool options_ok = true;
-  options_ok &= ipopt_options->SetStringValue("sb", "yes");  // no banner
-  options_ok &= ipopt_options->SetIntegerValue("print_level", options_.print_level);
-  options_ok &= ipopt_options->SetStringValue("hessian_approximation", "limited-memory");
-  options_ok &= ipopt_options->SetIntegerValue("limited_memory_max_history",
-                                               options_.limited_memory_max_history);
-  options_ok &= ipopt_options->SetNumericValue("tol", tolerance);
-  options_ok &= ipopt_options->SetNumericValue("dual_inf_tol", tolerance);
-  // No "acceptable" early exit: tolerances mean what the options say.
-  options_ok &= ipopt_options->SetIntegerValue("acceptable_iter", 0);
-  options_ok &= ipopt_options->SetIntegerValue("max_iter", options_.max_iterations);
-  // Ipopt relaxes bounds by 1e-8 (relative) by default; twill's problems may be undefined
-  // outside their box (e.g. a negative stiffness), so evaluations stay inside it.
-  options_ok &= ipopt_options->SetNumericValue("bound_relax_factor", 0.0);
-  options_ok &= ipopt_options->SetStringValue("mu_strategy", options_.mu_strategy);
-  options_ok &= ipopt_options->SetStringValue("nlp_scaling_method", options_.nlp_scaling_method);
-  options_ok &= ipopt_options->SetNumericValue("nlp_scaling_max_gradient", kScalingMaxGradient);
   Ipopt::SmartPtr<ProblemTnlp> tnlp = new ProblemTnlp(problem, x0, options_);
-  options_ok &= ipopt_options->SetNumericValue(
-      "limited_memory_init_val",
-      tnlp->first_step_init_val(options_.nlp_scaling_method == "gradient-based"));
+  const bool options_ok = set_ipopt_options(*app->Options(), options_, *tnlp);
   const Ipopt::ApplicationReturnStatus init = app->Initialize();
   if (!options_ok || init != Ipopt::Solve_Succeeded) {
     result.status = OptimizerStatus::failed;
@@ -368,37 +415,8 @@ void IpoptOptimizer::run(CountedProblem& problem, Eigen::VectorXd x0,
     }
     return;
   }
-  if (tnlp->stop()) {
-    result.status = tnlp->stop()->status;
-    result.message = tnlp->stop()->message;
-    if (tnlp->current()) {
-      result.x = tnlp->current()->x;
-    } else if (problem.has_best()) {
-      result.x = problem.best_x();
-    }
-  } else {
-    result.status = map_status(status);
-    result.message = "Ipopt: " + status_name(status);
-    if (tnlp->final_x()) {
-      result.x = *tnlp->final_x();
-    } else if (problem.has_best()) {
-      result.x = problem.best_x();
-    }
-  }
-  // Ipopt can end at a trial point whose evaluation failed (no value, no gradient; seen on
-  // the poplin example, where it crashed here): report the best evaluated point instead.
-  const auto* at = tnlp->cached(result.x);
-  if (at && !std::isfinite(at->value) && problem.has_best()) {
-    result.x = problem.best_x();
-    at = tnlp->cached(result.x);
-  }
-  if (at && std::isfinite(at->value) && at->gradient.size() == at->x.size()) {
-    result.summary.final_value = at->value;
-    result.summary.final_gradient_norm =
-        projected_gradient_norm(at->x, at->gradient, problem.lower(), problem.upper());
-  } else if (tnlp->final_x() && result.x == *tnlp->final_x()) {
-    result.summary.final_value = tnlp->final_value();
-  }
+  take_outcome(*tnlp, status, problem, result);
+  summarise_final_point(*tnlp, problem, result);
 }
 
 }  // namespace twill

@@ -255,64 +255,16 @@ class EffectFit final : public FitStage {
       return;
     }
     const auto t = Clock::now();
-    select_runs(context);
-    std::vector<std::shared_ptr<Predictor>> predictors;
-    std::vector<std::string> tests;  // each predictor's test, for the per-test breakdown
-    std::vector<const RunData*> force_runs;
-    for (const RunData& d : runs_) force_runs.push_back(&d);
-    for (const auto& experiment : context.tensile_experiments(force_runs, level, context.params))
-      predictors.push_back(experiment);
-    for (const RunData& d : runs_) tests.push_back(d.test->label);
-    for (const RunData& d : lateral_runs_) {
-      predictors.push_back(context.tensile_experiment(d, level, context.params, kLateralExperiment));
-      tests.push_back(d.test->label + " lateral strain");
+    const Observations observed = observations(context, level);
+    const Unknowns unknowns = unknowns_of(context, *configured);
+    FitEffect result = effect_record(context, level, observed.predictors);
+    if (!options_.fit) {
+      evaluate_in_place(context, *configured, unknowns, observed, &result);
+    } else {
+      fit_and_score(context, ComponentChoice(*configured), level, unknowns, observed, t, &result);
+      record_parameters(context, context.params.effects[index], &result);
+      note_unpinned(context, result);
     }
-    if (bends())
-      for (const BendTest& b : context.dataset().bend) {
-        predictors.push_back(context.bend_experiment(b, context.params));
-        tests.push_back("bend " + b.label);
-      }
-    if (predictors.empty())
-      throw std::runtime_error("effect-fit " + options_.effect + ": the dataset has no " + options_.observable + " data");
-    const std::vector<EffectParameter> parameters = effect_parameters({*configured}, context.registry());
-    std::vector<std::string> free;
-    for (const EffectParameter& p : parameters) free.push_back(p.name);
-    const std::vector<std::string> effect_free = free;
-    if (options_.with_curves && !bends()) append_curve_parameters(context, &free);
-    ParameterMap::Options map_options;
-    map_options.ranges = ranges_of(parameters);
-
-    FitEffect result = effect_record(context, level, predictors);
-    if (!options_.fit) {  // evaluated where it stands: no score (nothing is fitted), no noise floor
-      set_errors(tests,
-                 free_scale_errors(neutral_params(context, *configured), effect_free, map_options, predictors,
-                                   force_runs.size()),
-                 free_scale_errors(context.params, effect_free, map_options, predictors, force_runs.size()), {},
-                 &result);
-      finish(context, std::move(result), out);
-      return;
-    }
-    std::vector<Eigen::VectorXd> predicted_without, predicted_with;
-    const std::vector<double> without =
-        errors_at_neutral(context, *configured, effect_free, map_options, predictors, force_runs, &predicted_without);
-    const MaterialParameters neutral = neutral_params(context, *configured);
-    const LateralTerms lateral{lateral_level_noise(context, neutral, predictors),
-                               lateral_known_directions(context, level, neutral, predictors, predicted_without)};
-    const std::vector<double> noise =
-        bends() ? bend_score_at_neutral(context, *configured, effect_free, map_options, &result)
-                : score_at_neutral(context, *configured, free, effect_free.size(), map_options, predictors, force_runs,
-                                   lateral, &result);
-    if (free.size() > effect_free.size())
-      fit_effect_first(context, effect_free, map_options, predictors, force_runs, result.resolution, t);
-    const std::vector<double> with =
-        fit_free(context, free, map_options, predictors, force_runs, result.resolution, t, &predicted_with);
-    keep_curves(predictors, predicted_without, predicted_with, &result);
-    set_errors(tests, without, with,
-               smaller_noise(noise, noise_at_fit(context, free, effect_free.size(), map_options, predictors, force_runs,
-                                                 lateral)),
-               &result);
-    record_parameters(context, context.params.effects[index], &result);
-    note_unpinned(context, result);
     finish(context, std::move(result), out);
   }
 
@@ -322,6 +274,85 @@ class EffectFit final : public FitStage {
   std::deque<RunData> lateral_runs_;  ///< runs whose lateral strains it fits
 
   bool bends() const { return options_.observable == "chord_angle_deg"; }
+
+  /// What the stage fits: a predictor per force run, lateral-strain run and (for the chord
+  /// angles) bend test, each with its test's label for the per-test breakdown; the force runs
+  /// are the first force_runs.size() predictors.
+  struct Observations {
+    std::vector<std::shared_ptr<Predictor>> predictors;
+    std::vector<std::string> tests;
+    std::vector<const RunData*> force_runs;
+  };
+  Observations observations(FitContext& context, int level) {
+    Observations o;
+    select_runs(context);
+    for (const RunData& d : runs_) o.force_runs.push_back(&d);
+    for (const auto& experiment : context.tensile_experiments(o.force_runs, level, context.params))
+      o.predictors.push_back(experiment);
+    for (const RunData& d : runs_) o.tests.push_back(d.test->label);
+    for (const RunData& d : lateral_runs_) {
+      o.predictors.push_back(context.tensile_experiment(d, level, context.params, kLateralExperiment));
+      o.tests.push_back(d.test->label + " lateral strain");
+    }
+    if (bends())
+      for (const BendTest& b : context.dataset().bend) {
+        o.predictors.push_back(context.bend_experiment(b, context.params));
+        o.tests.push_back("bend " + b.label);
+      }
+    if (o.predictors.empty())
+      throw std::runtime_error("effect-fit " + options_.effect + ": the dataset has no " + options_.observable + " data");
+    return o;
+  }
+
+  /// The fit's unknowns: the effect's parameters (within their ranges), then with `with_curves`
+  /// the fitted curves' entries.
+  struct Unknowns {
+    std::vector<std::string> free, effect_free;
+    ParameterMap::Options map_options;
+  };
+  Unknowns unknowns_of(const FitContext& context, const ComponentChoice& configured) const {
+    Unknowns u;
+    const std::vector<EffectParameter> parameters = effect_parameters({configured}, context.registry());
+    for (const EffectParameter& p : parameters) u.free.push_back(p.name);
+    u.effect_free = u.free;
+    if (options_.with_curves && !bends()) append_curve_parameters(context, &u.free);
+    u.map_options.ranges = ranges_of(parameters);
+    return u;
+  }
+
+  /// `fit: false`: the errors without the effect and with it where the parameters hold it; no
+  /// score (nothing is fitted) and no noise floor.
+  void evaluate_in_place(const FitContext& context, const ComponentChoice& configured, const Unknowns& u,
+                         const Observations& o, FitEffect* result) const {
+    const size_t n = o.force_runs.size();
+    set_errors(o.tests, free_scale_errors(neutral_params(context, configured), u.effect_free, u.map_options, o.predictors, n),
+               free_scale_errors(context.params, u.effect_free, u.map_options, o.predictors, n), {}, result);
+  }
+
+  /// The score test at the effect's neutral values, then the fit (the effect's parameters first
+  /// when the curves are free too), the errors without and with it and the noise floors.
+  void fit_and_score(FitContext& context, const ComponentChoice& configured, int level, const Unknowns& u,
+                     const Observations& o, Clock::time_point t, FitEffect* result) {
+    std::vector<Eigen::VectorXd> predicted_without, predicted_with;
+    const std::vector<double> without =
+        errors_at_neutral(context, configured, u.effect_free, u.map_options, o.predictors, o.force_runs, &predicted_without);
+    const MaterialParameters neutral = neutral_params(context, configured);
+    const LateralTerms lateral{lateral_level_noise(context, neutral, o.predictors),
+                               lateral_known_directions(context, level, neutral, o.predictors, predicted_without)};
+    const size_t n_effect = u.effect_free.size();
+    const std::vector<double> noise =
+        bends() ? bend_score_at_neutral(context, configured, u.effect_free, u.map_options, result)
+                : score_at_neutral(context, configured, u.free, n_effect, u.map_options, o.predictors, o.force_runs,
+                                   lateral, result);
+    if (u.free.size() > n_effect)
+      fit_effect_first(context, u.effect_free, u.map_options, o.predictors, o.force_runs, result->resolution, t);
+    const std::vector<double> with =
+        fit_free(context, u.free, u.map_options, o.predictors, o.force_runs, result->resolution, t, &predicted_with);
+    keep_curves(o.predictors, predicted_without, predicted_with, result);
+    set_errors(o.tests, without, with,
+               smaller_noise(noise, noise_at_fit(context, u.free, n_effect, u.map_options, o.predictors, o.force_runs, lateral)),
+               result);
+  }
 
   // What the lateral strains carry beside each run's noise, on the predictors' rows (none
   // without lateral rows): the curves' levels (lateral_level_noise) and the mesh's and the
