@@ -31,27 +31,68 @@ CantileverExperiment::CantileverExperiment(const CantileverSetup& setup, Discret
   if (!setup_.validate(&error)) throw std::invalid_argument("cantilever setup: " + error);
 }
 
+namespace {
+
+/// The overhanging part of the strip: `overhang_mm` long, the setup's width, mesh and angle.
+StripSpec overhang_strip(const CantileverSetup& setup, double overhang_mm) {
+  StripSpec strip;
+  strip.length_m = 1e-3 * overhang_mm;
+  strip.width_m = 1e-3 * setup.width_mm;
+  strip.cells_across = setup.cells_across;
+  strip.cells_along = setup.cells_along;
+  strip.angle_deg = setup.angle_deg;
+  return strip;
+}
+
+bool same_strip(const StripSpec& a, const StripSpec& b) {
+  return a.length_m == b.length_m && a.width_m == b.width_m && a.cells_across == b.cells_across &&
+         a.cells_along == b.cells_along && a.angle_deg == b.angle_deg;
+}
+
+/// The start of a solve in *q, and the gravity steps from it. Warm: the previous equilibrium
+/// (same mesh topology, at `last_overhang_mm` > 0) stretched along the strip to the new
+/// overhang, the clamp at rest, gravity in one step — close to the new equilibrium during an
+/// overhang search, where the thin strip's large rotation makes a cold Newton start from flat
+/// slow (tens of damped steps). Cold: the flat strip, gravity in `gravity_steps`.
+int start_state(const Discretization& d, double overhang_mm, double last_overhang_mm, int gravity_steps,
+                Eigen::VectorXd* q) {
+  if (q->size() != d.num_dofs() || !(last_overhang_mm > 0)) {
+    *q = d.rest_positions();
+    return gravity_steps;
+  }
+  const double s = overhang_mm / last_overhang_mm;
+  for (int n = 0; n < d.num_nodes(); ++n) {
+    (*q)[3 * n] *= s;
+    (*q)[3 * n + 2] *= s;
+  }
+  for (int n : d.clamped_nodes(StripEnd::Start, true)) q->segment<3>(3 * n) = d.rest_positions().segment<3>(3 * n);
+  return 1;
+}
+
+/// dθ/dk [°] of the chord angle θ = atan2(−z, x) at the tip (tip = P q): dθ = (z dx − x dz) /
+/// (x² + z²), through the equilibrium's sensitivity (paper Eq. 6).
+Eigen::VectorXd chord_angle_gradient(const EquilibriumSolver& solver, const Eigen::VectorXd& q,
+                                     const std::vector<int>& parameters, const SparseMatrix& tip_probe,
+                                     const Eigen::Vector3d& tip) {
+  const EquilibriumSensitivity sens(solver, q, parameters);
+  const double r2 = tip.x() * tip.x() + tip.z() * tip.z();
+  const Eigen::Vector3d dtheta_dtip(tip.z() / r2, 0.0, -tip.x() / r2);
+  const Eigen::VectorXd dtheta_dq = tip_probe.transpose() * dtheta_dtip;
+  return sens.observable_derivative(dtheta_dq) * (180.0 / std::numbers::pi);
+}
+
+}  // namespace
+
 CantileverResult CantileverExperiment::solve(double overhang_mm) const {
   const auto start = std::chrono::steady_clock::now();
   CantileverResult result;
   result.overhang_mm = overhang_mm;
   if (!(overhang_mm > 0)) throw std::invalid_argument("cantilever overhang must be > 0 mm");
 
-  StripSpec strip;
-  strip.length_m = 1e-3 * overhang_mm;
-  strip.width_m = 1e-3 * setup_.width_mm;
-  strip.cells_across = setup_.cells_across;
-  strip.cells_along = setup_.cells_along;
-  strip.angle_deg = setup_.angle_deg;
+  const StripSpec strip = overhang_strip(setup_, overhang_mm);
   // The mesh precompute (patch tables, basis values) depends only on the strip: a solve at the
   // same overhang (every evaluation of a fit's bend stage) reuses it with the new material.
-  const bool same_mesh = last_discretization_ && [&] {
-    const StripSpec& s = last_discretization_->strip();
-    return s.length_m == strip.length_m && s.width_m == strip.width_m &&
-           s.cells_across == strip.cells_across && s.cells_along == strip.cells_along &&
-           s.angle_deg == strip.angle_deg;
-  }();
-  if (same_mesh)
+  if (last_discretization_ && same_strip(last_discretization_->strip(), strip))
     last_discretization_->set_parameters(parameters_);
   else
     last_discretization_ = factory_(strip, parameters_);
@@ -60,23 +101,7 @@ CantileverResult CantileverExperiment::solve(double overhang_mm) const {
   const std::vector<int> fixed = ConstrainedDofs::node_dofs(d.clamped_nodes(StripEnd::Start, true));
   EquilibriumSolver solver(d, fixed, solver_options_);
   const SparseMatrix tip_probe = d.point_evaluation({Eigen::Vector2d(strip.length_m, 0.0)});
-
-  // Warm start: the previous equilibrium (same mesh topology) stretched along the strip to the
-  // new overhang is close to the new one during an overhang search, and the thin strip's
-  // large rotation makes a cold Newton start from flat slow (tens of damped steps).
-  const bool warm = last_q_.size() == d.num_dofs() && last_overhang_mm_ > 0;
-  int steps = setup_.gravity_steps;
-  if (warm) {
-    const double s = overhang_mm / last_overhang_mm_;
-    for (int n = 0; n < d.num_nodes(); ++n) {
-      last_q_[3 * n] *= s;
-      last_q_[3 * n + 2] *= s;
-    }
-    for (int n : d.clamped_nodes(StripEnd::Start, true)) last_q_.segment<3>(3 * n) = d.rest_positions().segment<3>(3 * n);
-    steps = 1;
-  } else {
-    last_q_ = d.rest_positions();
-  }
+  const int steps = start_state(d, overhang_mm, last_overhang_mm_, setup_.gravity_steps, &last_q_);
   auto apply_step = [&](int step, Eigen::VectorXd*) {
     const double fraction = static_cast<double>(step + 1) / steps;
     d.set_gravity(Eigen::Vector3d(0, 0, -kStandardGravity_m_s2 * fraction));
@@ -89,14 +114,8 @@ CantileverResult CantileverExperiment::solve(double overhang_mm) const {
   result.newton_iterations = summary.total_newton_iterations;
   result.chord_angle_deg = std::atan2(-tip.z(), tip.x()) * 180.0 / std::numbers::pi;
   result.tip_deflection_mm = -1e3 * tip.z();
-  if (result.converged && !sensitivity_parameters_.empty()) {
-    // θ = atan2(−z, x) ⇒ dθ = (z dx − x dz) / (x² + z²), through the tip probe (tip = P q).
-    const EquilibriumSensitivity sens(solver, last_q_, sensitivity_parameters_);
-    const double r2 = tip.x() * tip.x() + tip.z() * tip.z();
-    const Eigen::Vector3d dtheta_dtip(tip.z() / r2, 0.0, -tip.x() / r2);
-    const Eigen::VectorXd dtheta_dq = tip_probe.transpose() * dtheta_dtip;
-    result.dchord_angle_dk = sens.observable_derivative(dtheta_dq) * (180.0 / std::numbers::pi);
-  }
+  if (result.converged && !sensitivity_parameters_.empty())
+    result.dchord_angle_dk = chord_angle_gradient(solver, last_q_, sensitivity_parameters_, tip_probe, tip);
   result.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }

@@ -242,11 +242,9 @@ std::string effects_markdown(const std::vector<FitEffect>& effects) {
   return md.str();
 }
 
-std::string report_markdown(const FitReport& r) {
+// report.md's sections, in order.
+std::string fit_table_markdown(const FitReport& r) {
   std::ostringstream md;
-  md << "# twill fit: " << r.dataset << "\n\n";
-  md << "Dataset folder: `" << r.folder << "`. Parameters: `params.yaml`; everything below is also in "
-        "`report.json`; the resolved config is `config.yaml`.\n\n";
   md << "## Fit errors (paper Table 3)\n\nAverage relative error Σ|p̂ − p̆| / Σ|p̆| (model.md §8) at "
         "the resolution shown (where the run's stage ended: a stage the resolution ladder settled is not "
         "simulated finer; final-curves `level: finest` evaluates every run at the finest level)";
@@ -264,6 +262,11 @@ std::string report_markdown(const FitReport& r) {
                       turned ? fmt::format("{:+.2f}° | ", c.delta_theta_deg) : "",
                       scaled ? fmt::format("{:.4f} | ", c.specimen_scale) : "", c.degree, c.resolution,
                       100 * c.avg_rel_error);
+  return md.str();
+}
+
+std::string drape_and_validation_markdown(const FitReport& r) {
+  std::ostringstream md;
   md << "\n## Drape (paper Table 4)\n\nChord angle simulated at the measured overhang (41.5° measured), "
         "and the simulated overhang at 41.5°.\n\n| test | angle | measured overhang | chord angle | "
         "overhang at 41.5° |\n|---|---|---|---|---|\n";
@@ -276,8 +279,11 @@ std::string report_markdown(const FitReport& r) {
   for (const auto& c : r.validation)
     md << fmt::format("| {} | {:g}° | {} | {:+.2f}° | {:.2f} % | {:.2f} % |\n", c.label, c.angle_deg, c.run,
                       c.delta_theta_deg, 100 * c.avg_rel_error, 100 * c.avg_rel_error_without_offset);
-  if (!r.validation_strain.empty()) md << strain_range_markdown(r.validation_strain);
-  if (!r.effects.empty()) md << effects_markdown(r.effects);
+  return md.str();
+}
+
+std::string stages_and_ladder_markdown(const FitReport& r) {
+  std::ostringstream md;
   md << "\n## Stages\n\n| stage | resolution | degree | error | optimiser | status | iterations | "
         "solves | time |\n|---|---|---|---|---|---|---|---|---|\n";
   for (const auto& s : r.stages)
@@ -296,6 +302,18 @@ std::string report_markdown(const FitReport& r) {
   for (const auto& f : r.refinement)
     md << fmt::format("| {} | {} → {} | {:.3f} % ({:.3g}) | {} |\n", f.stage, f.from_resolution, f.to_resolution,
                       100 * f.response_change, f.response_strain, f.decision);
+  return md.str();
+}
+
+std::string report_markdown(const FitReport& r) {
+  std::ostringstream md;
+  md << "# twill fit: " << r.dataset << "\n\n";
+  md << "Dataset folder: `" << r.folder << "`. Parameters: `params.yaml`; everything below is also in "
+        "`report.json`; the resolved config is `config.yaml`.\n\n";
+  md << fit_table_markdown(r) << drape_and_validation_markdown(r);
+  if (!r.validation_strain.empty()) md << strain_range_markdown(r.validation_strain);
+  if (!r.effects.empty()) md << effects_markdown(r.effects);
+  md << stages_and_ladder_markdown(r);
   md << "\n## Initial guess (paper §5.3)\n\n| run | uniform-strain fit error | uniform strain vs full "
         "solve |\n|---|---|---|\n";
   for (const auto& g : r.initial_guess)
