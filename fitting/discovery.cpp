@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <limits>
 #include <map>
 #include <optional>
@@ -282,10 +283,9 @@ void fit_candidates(const DiscoverWork& work, const DiscoverOptions& options, Di
 
 // The protocol's tensile-curve stages alone, refitted from `params_path` at `level` (the
 // screening level unless given; each from the curve the file holds, at its degree): with
-// `raise`, raised from there until a
-// raise lowers the error by less than kRicherCurveMinImprovement, up to kMaxCurveDegree, the
-// first raise tried whatever the error (curve-degree's fit); without, as the protocol sets them
-// (a held-out specimen fold's baseline).
+// `raise`, raised from there until a raise lowers the error by less than
+// kRicherCurveMinImprovement, up to kMaxCurveDegree, the first raise tried whatever the error
+// (curve-degree's fit); without, as the protocol sets them (a held-out specimen fold's baseline).
 //
 // Until the error stops falling, not one degree: the protocol's search stops at its 2 % target,
 // and a null twin's warp stayed 0.80 % against a repeats' scatter of 0.17 % with one degree more
@@ -544,9 +544,31 @@ std::vector<DiscoverFold> folds_for(const DiscoverWork& work, const std::string&
   return discover_folds(work.dataset, e->held_out(), held, note);
 }
 
-void held_out_folds(DiscoverWork& work, const std::string& effect, const std::vector<DiscoverFold>& folds, DiscoverHeldOut* out);
-DiscoverHeldOut held_out_on(DiscoverWork& work, const std::string& effect, const std::vector<DiscoverFold>& folds,
-                            const std::string& held);
+// How a candidate is checked on a fold: `fit` fits it on the fold's data from the fold's
+// baseline (`fold` names the progress lines and scratch files), `error` judges parameters on
+// the fold's held-out data (`what` names a scratch file); `doing` says so on the progress line.
+struct FoldCheck {
+  std::string doing;
+  std::function<FitReport(const Dataset& fitted, const MaterialParameters& start, const std::string& fold)> fit;
+  std::function<double(const Dataset& held, const MaterialParameters& params, const std::string& what)> error;
+};
+
+// An effect's: fitted from the fold's baseline with its effect-fit stage, judged by that stage
+// with `fit: false` on the held-out runs.
+FoldCheck effect_fold_check(DiscoverWork& work, const std::string& effect) {
+  return {"fitting it from the fold's baseline, evaluating on the held-out",
+          [&work, effect](const Dataset& fitted, const MaterialParameters& start, const std::string& fold) {
+            return fit_effects_from(work, fitted, start, {effect}, fold);
+          },
+          [&work, effect](const Dataset& held, const MaterialParameters& params, const std::string& what) {
+            return held_out_error(held, work.fit, effect, params, work.level, work.file(what + ".yaml"), work.registry);
+          }};
+}
+
+void held_out_folds(DiscoverWork& work, const std::string& name, const std::vector<DiscoverFold>& folds,
+                    const FoldCheck& check, DiscoverHeldOut* out);
+DiscoverHeldOut held_out_on(DiscoverWork& work, const std::string& name, const std::vector<DiscoverFold>& folds,
+                            const std::string& held, const FoldCheck& check);
 
 DiscoverHeldOut held_out_check(DiscoverWork& work, const DiscoverCandidate& candidate) {
   const std::string& effect = candidate.name;
@@ -559,7 +581,7 @@ DiscoverHeldOut held_out_check(DiscoverWork& work, const DiscoverCandidate& cand
       out.note = "one cantilever per direction (needs two or more to hold some out)";
       return out;
     }
-    return held_out_on(work, effect, folds, "cantilevers");
+    return held_out_on(work, effect, folds, "cantilevers", effect_fold_check(work, effect));
   }
   if (is_angle_offset_effect(work.registry, effect)) {
     // Each strip's own offset predicts nothing of other specimens; what it predicts is the rest
@@ -579,39 +601,41 @@ DiscoverHeldOut held_out_check(DiscoverWork& work, const DiscoverCandidate& cand
   }
   const std::vector<DiscoverFold> folds = folds_for(work, effect, &out.held, &out.note);
   if (folds.empty()) return out;
-  return held_out_on(work, effect, folds, out.held);
+  return held_out_on(work, effect, folds, out.held, effect_fold_check(work, effect));
 }
 
 // held_out_folds on `folds`, a failure kept as the check's (held: what the folds hold out).
-DiscoverHeldOut held_out_on(DiscoverWork& work, const std::string& effect, const std::vector<DiscoverFold>& folds,
-                            const std::string& held) {
+DiscoverHeldOut held_out_on(DiscoverWork& work, const std::string& name, const std::vector<DiscoverFold>& folds,
+                            const std::string& held, const FoldCheck& check) {
   DiscoverHeldOut out;
   out.held = held;
   try {
-    held_out_folds(work, effect, folds, &out);
+    held_out_folds(work, name, folds, check, &out);
   } catch (const std::exception& e) {
     out.failure = e.what();
-    if (work.progress) work.progress(0, "held-out check " + effect + ": failed: " + out.failure);
+    if (work.progress) work.progress(0, "held-out check " + name + ": failed: " + out.failure);
     return out;
   }
   out.evaluated = true;
   return out;
 }
 
-// The folds of held_out_check: each fitted with the effect from its baseline, evaluated on its
-// held-out data; the errors averaged over the folds into `out`, the folds' parameters kept.
-void held_out_folds(DiscoverWork& work, const std::string& effect, const std::vector<DiscoverFold>& folds, DiscoverHeldOut* out_) {
+// The folds of a held-out check: candidate `name` fitted on each from its baseline, both judged
+// on its held-out data; the errors averaged over the folds into `out`, the folds' effect
+// parameters kept (an effect's).
+void held_out_folds(DiscoverWork& work, const std::string& name, const std::vector<DiscoverFold>& folds,
+                    const FoldCheck& check, DiscoverHeldOut* out_) {
   DiscoverHeldOut& out = *out_;
   const double weight = 1.0 / static_cast<double>(folds.size());
   for (const DiscoverFold& f : folds) {
-    const std::string fold = effect + " " + f.name;
+    const std::string fold = name + " " + f.name;
     const MaterialParameters& without = fold_baseline(work, f);
     const auto t = Clock::now();
-    if (work.progress) work.progress(0, "held-out check " + fold + ": fitting it from the fold's baseline, evaluating on the held-out " + out.held);
-    const FitReport with = fit_effects_from(work, f.fitted, without, {effect}, fold);
-    if (const FitEffect* e = record_of(with.effects, effect)) out.folds.push_back(e->parameters);
-    out.without += weight * held_out_error(f.held, work.fit, effect, without, work.level, work.file("without.yaml"), work.registry);
-    out.with += weight * held_out_error(f.held, work.fit, effect, with.parameters, work.level, work.file("with.yaml"), work.registry);
+    if (work.progress) work.progress(0, "held-out check " + fold + ": " + check.doing + " " + out.held);
+    const FitReport with = check.fit(f.fitted, without, fold);
+    if (const FitEffect* e = record_of(with.effects, name)) out.folds.push_back(e->parameters);
+    out.without += weight * check.error(f.held, without, fold + " without");
+    out.with += weight * check.error(f.held, with.parameters, fold + " with");
     work.timed("held-out check " + fold, t);
   }
 }
@@ -626,30 +650,18 @@ DiscoverHeldOut curve_degree_held_out(DiscoverWork& work, const DiscoverResult& 
   const std::vector<DiscoverFold> folds = discover_folds(work.dataset, Effect::HeldOut::specimens, &out.held, &out.note);
   if (folds.empty()) return out;
   const DiscoverCandidate* measure = curve_degree_rows(work, result);
-  const auto error_on = [&](const Dataset& held, const MaterialParameters& params, const std::string& what) {
-    return measure ? held_out_error(held, work.fit, measure->name, params, work.level, work.file(what + ".yaml"), work.registry)
-                   : fit_runs_error_at(held, work.fit, work.registry, params, work.level);
-  };
-  try {
-    const double weight = 1.0 / static_cast<double>(folds.size());
-    for (const DiscoverFold& f : folds) {
-      const std::string fold = std::string(kCurveDegreeCandidate) + " " + f.name;
-      const MaterialParameters& without = fold_baseline(work, f);
-      const auto t = Clock::now();
-      if (work.progress) work.progress(0, "held-out check " + fold + ": the curves raised on the fold, evaluated on the held-out " + out.held);
-      const std::string start = params_with_effects(without, {}, work.file(fold + " start.yaml"), work.registry);
-      const FitReport with = run_fit(f.fitted, curves_refit_config(work, start, true), work.registry, prefixed(work.progress, fold));
-      out.without += weight * error_on(f.held, without, fold + " without");
-      out.with += weight * error_on(f.held, with.parameters, fold + " with");
-      work.timed("held-out check " + fold, t);
-    }
-  } catch (const std::exception& e) {
-    out.failure = e.what();
-    if (work.progress) work.progress(0, "held-out check curve-degree: failed: " + out.failure);
-    return out;
-  }
-  out.evaluated = true;
-  return out;
+  const FoldCheck check{
+      "the curves raised on the fold, evaluated on the held-out",
+      [&work](const Dataset& fitted, const MaterialParameters& start, const std::string& fold) {
+        const std::string path = params_with_effects(start, {}, work.file(fold + " start.yaml"), work.registry);
+        return run_fit(fitted, curves_refit_config(work, path, true), work.registry, prefixed(work.progress, fold));
+      },
+      [&work, measure](const Dataset& held, const MaterialParameters& params, const std::string& what) {
+        return measure ? held_out_error(held, work.fit, measure->name, params, work.level, work.file(what + ".yaml"),
+                                        work.registry)
+                       : fit_runs_error_at(held, work.fit, work.registry, params, work.level);
+      }};
+  return held_out_on(work, kCurveDegreeCandidate, folds, out.held, check);
 }
 
 }  // namespace
@@ -743,8 +755,9 @@ FitReport refit_curve_degree(DiscoverWork& work, const FitReport& screening, Dis
 
 // The refit the report gives (result->refit): the joint refit where its effects are still what
 // the judge names (or ties); otherwise the named ones' own — curve-degree's raised curves (again
-// at the finest level where it was screened below it: refit_curve_degree), a joint refit of two or more, one effect refitted at the finest level, or its screening fit
-// where that is the finest. The rejected effect of a pair is not in it: params.yaml holds what
+// at the finest level where it was screened below it: refit_curve_degree), a joint refit of two
+// or more, one effect refitted at the finest level, or its screening fit where that is the
+// finest. The rejected effect of a pair is not in it: params.yaml holds what
 // is named (session 30: a pair's loser, rate-dependence, was in the 75 mm discover's params.yaml).
 void refit_named(DiscoverWork& work, const DiscoverOptions& options, const std::map<std::string, FitReport>& reports,
                  JointRefit& joint, DiscoverResult* result) {
