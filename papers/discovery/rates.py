@@ -8,7 +8,8 @@ candidate the hidden dataset can test is testable on the twin too), each given t
 
     rates.py TWILL OUTDIR [--effects SPEC ...] [--seeds 1 2 3 4 5] [--scatter 0.10 0.20]
              [--speeds MM_MIN ...] [--repeats N] [--set KEY=VALUE ...] [--no-twins] [--table-only]
-    rates.py TWILL OUTDIR --groups papers/discovery/table.yaml [--table-only]
+             [--record DIR]
+    rates.py TWILL OUTDIR --groups papers/discovery/table.yaml [--table-only] [--record DIR]
 
 --groups runs each group of a groups file (the whole table of papers/discovery/README.md is
 table.yaml: the one-speed effects and the loop effects at two speeds, at both scatter levels)
@@ -26,8 +27,11 @@ honest verdict is `tied: hysteresis|rate-dependence (needs: two speeds)`; `--spe
 the data that separate them. --repeats sets the specimens per test and speed (default: the spec's).
 
 A run whose OUTDIR/<tag>-discover/discover.json exists is not repeated: the study resumes where
-it stopped. Writes OUTDIR/rates.json (a row per dataset) and OUTDIR/rates.md (the rates table,
-then a line per dataset), both rewritten after every run.
+it stopped. --record DIR keeps each dataset's row as DIR/<tag>.json (with --groups,
+DIR/<group name>/<tag>.json) the moment it is known, and a dataset whose row is recorded there is
+not run again: a study in a scratch OUTDIR survives the loss of the machine when DIR is in the
+repository (papers/discovery/runs-0118c33). Writes OUTDIR/rates.json (a row per dataset) and
+OUTDIR/rates.md (the rates table, then a line per dataset), both rewritten after every run.
 
 Per dataset the row holds the verdict, the named effects, every candidate's status, and for the
 hidden effect its gap (error before/after/floor over its effect-fit rows: the excess over the
@@ -170,10 +174,13 @@ def check_effects(effects, library, where):
     return f"{where}: no spec {', '.join(missing)}" if missing else None
 
 
-def run_group(twill, out, group, library, table_only):
-    """One group's datasets (generated, then discovered, unless their discover.json exists); its
-    rows, and OUT/rates.json and rates.md rewritten after every run. `group`: the keys of GROUP_KEYS."""
+def run_group(twill, out, group, library, table_only, record=None):
+    """One group's datasets (generated, then discovered, unless their discover.json exists or their
+    row is in `record`); its rows, and OUT/rates.json and rates.md rewritten after every run.
+    `group`: the keys of GROUP_KEYS."""
     os.makedirs(out, exist_ok=True)
+    if record:
+        os.makedirs(record, exist_ok=True)
     rows = []
     twins = {}  # a twin's data (twin_key) -> (its tag, its discover.json): two specs' twins can be the same data
     for scatter in group["scatter"]:
@@ -181,12 +188,42 @@ def run_group(twill, out, group, library, table_only):
             for spec_name in group["effects"]:
                 effect = effect_of(spec_name, library + OUTSIDE_THE_LIBRARY)
                 for hidden in (True, False) if group["twins"] else (True,):
-                    row = run_dataset(twill, out, group, spec_name, effect, scatter, seed, hidden, table_only, twins)
+                    tag = tag_of(spec_name, scatter, seed, hidden)
+                    row = recorded_row(record, tag)
+                    if not row:
+                        row = run_dataset(twill, out, group, spec_name, effect, scatter, seed, hidden, table_only, twins)
+                        keep_row(record, row)
                     if row:
                         rows.append(row)
                         write_tables(out, rows)
     write_tables(out, rows)
     return rows
+
+
+def tag_of(spec_name, scatter, seed, hidden):
+    """A dataset's name in OUT and in the record."""
+    return f"{spec_name}-s{scatter:g}-{seed}-{'hidden' if hidden else 'twin'}"
+
+
+def recorded_row(record, tag):
+    """The row `record` keeps for the dataset `tag`, or None."""
+    path = os.path.join(record, tag + ".json") if record else None
+    if not path or not os.path.exists(path):
+        return None
+    with open(path) as f:
+        row = json.load(f)
+    print(f"{tag}: recorded in {path}: {row['verdict']}", flush=True)
+    return row
+
+
+def keep_row(record, row):
+    """Writes `row` into `record` (whole or not at all: through a temporary file)."""
+    if not record or not row:
+        return
+    path = os.path.join(record, row["tag"] + ".json")
+    with open(path + ".tmp", "w") as f:
+        json.dump(row, f, indent=1)
+    os.replace(path + ".tmp", path)
 
 
 def twin_key(spec_path, seed):
@@ -203,7 +240,7 @@ def run_dataset(twill, out, group, spec_name, effect, scatter, seed, hidden, tab
     """One dataset's row (None when it has not run and `table_only`, or when it failed). A twin
     whose data an earlier twin of the group has (`twins`, by twin_key) is not run again: its row is
     that twin's, marked `same_data_as`, and counted once."""
-    tag = f"{spec_name}-s{scatter:g}-{seed}-{'hidden' if hidden else 'twin'}"
+    tag = tag_of(spec_name, scatter, seed, hidden)
     data, result = os.path.join(out, tag), os.path.join(out, tag + "-discover")
     done = os.path.join(result, "discover.json")
     spec = os.path.join(out, tag + ".spec.yaml")
@@ -211,7 +248,7 @@ def run_dataset(twill, out, group, spec_name, effect, scatter, seed, hidden, tab
     if not hidden:
         spec_for(spec_name, scatter, hidden, spec, group["speeds"], group["repeats"])
         key = twin_key(spec, seed)
-        if key in twins:
+        if key in twins and (os.path.exists(done) or os.path.exists(twins[key][1])):
             earlier_tag, earlier_done = twins[key]
             with open(done if os.path.exists(done) else earlier_done) as f:
                 r = json.load(f)
@@ -321,14 +358,17 @@ def main():
     parser.add_argument("--set", nargs="*", default=GROUP_KEYS["overrides"], dest="overrides")
     parser.add_argument("--no-twins", action="store_true", help="only the datasets with the effect hidden")
     parser.add_argument("--table-only", action="store_true", help="rewrite the tables from what has run")
+    parser.add_argument("--record", help="keep each dataset's row in RECORD/<tag>.json (with --groups, "
+                        "RECORD/<group name>/<tag>.json); a recorded dataset is not run again")
     args = parser.parse_args()
     library = twill_cli.registered_names(args.twill, "effect")
     if args.groups:
         groups = read_groups(args.groups, library)
         done = []
         for group in groups:
+            record = os.path.join(args.record, group["name"]) if args.record else None
             done.append((group, run_group(args.twill, os.path.join(args.out, group["name"]), group, library,
-                                          args.table_only)))
+                                          args.table_only, record)))
             write_combined(args.out, done)
         return
     group = {"effects": args.effects or library, "seeds": args.seeds, "scatter": args.scatter, "speeds": args.speeds,
@@ -336,7 +376,7 @@ def main():
     message = check_effects(group["effects"], library, "--effects")
     if message:
         parser.error(message)
-    run_group(args.twill, args.out, group, library, args.table_only)
+    run_group(args.twill, args.out, group, library, args.table_only, args.record)
 
 
 if __name__ == "__main__":
