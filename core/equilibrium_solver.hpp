@@ -76,6 +76,22 @@
 // warm-started point: one of two); the returned q is the iterate the default would return
 // whenever both tests agree. has_solution_factorization() is false after such a solve.
 //
+// Saddles. Backward Euler from rest cannot leave a stationary point (its gradient is zero),
+// and a symmetric start stays on its symmetric branch: a flat strip pulled until its
+// contraction would wrinkle it is stationary and flat, a saddle. When ‖g_f‖∞ passes its test
+// where K_ff is not positive definite, the solver steps off along the lowest mode of
+// K_ff v = λ M_f v (M_f the lumped masses, so that λ is a squared frequency and the mode does
+// not depend on the dofs' units): K_ff + σ M_f is factorised with the smallest σ ≥ 0 found that
+// makes it positive definite (σ doubled from a small start, then bisected), and inverse
+// iteration v ← (K_ff + σM_f)⁻¹ M_f v converges to the mode of the lowest λ. When λ < 0 the
+// step is α v, its sign downhill (g_fᵀv ≤ 0), α from a step of 1e-4 L in the largest entry,
+// halved while Ψ does not fall (down to 1e-10 L), then doubled while it keeps falling (at most
+// L), the lowest Ψ kept; Newton resumes from there. A
+// saddle is left in the direction the start vector (fixed, pseudo-random) leans to, so the
+// result is reproducible; the two branches of a symmetric problem are mirror images. When no
+// λ < 0 is found or no step lowers Ψ beyond its round-off, the solve ends kIndefiniteStationary
+// (test EscapesASaddleAlongItsLowestMode; docs/solver.md "Saddles").
+//
 // Non-convergence never throws: solve() returns a summary with a status and a message.
 // Bad arguments (wrong vector size, invalid options) throw std::invalid_argument.
 // Logging: spdlog at debug level only.
@@ -124,6 +140,10 @@ struct EquilibriumOptions {
   double time_step_growth = 2.0;         ///< > 1
   int max_time_step_reductions = 40;     ///< halvings of h per backward-Euler step, ≥ 1
 
+  /// Escapes from an indefinite stationary point along its lowest mode, per solve (header
+  /// comment, "Saddles"), ≥ 0 (0: stop there with kIndefiniteStationary, as before).
+  int max_saddle_escapes = 4;
+
   /// The K_ff factorisation (ordering, supernodal, refinement steps).
   SparseCholeskyOptions linear_solver;
 
@@ -136,9 +156,9 @@ enum class EquilibriumStatus {
   kMaxIterations,         ///< max_newton_iterations reached
   kFallbackLimit,         ///< a failsafe was needed but max_fallbacks were used up
   kFallbackFailed,        ///< backward Euler could not take a step (h reductions exhausted)
-  kIndefiniteStationary,  ///< ‖g_f‖ converged but K_ff is not positive definite (a saddle,
-                          ///< or a degenerate minimum with singular K_ff): backward Euler
-                          ///< from rest cannot leave a stationary point, and no factor exists
+  kIndefiniteStationary,  ///< ‖g_f‖ converged but K_ff is not positive definite and no step
+                          ///< along its lowest mode lowers Ψ (a degenerate minimum with
+                          ///< singular K_ff), or max_saddle_escapes were used up
   kNonFinite,             ///< Ψ or its gradient is not finite at the initial guess
 };
 const char* to_string(EquilibriumStatus status);
@@ -153,6 +173,7 @@ struct EquilibriumSummary {
   int backward_euler_steps = 0;    ///< accepted backward-Euler steps in total
   int factorizations = 0;          ///< numeric factorisations (Newton and shifted, incl. failed)
   int failed_factorizations = 0;   ///< of which not positive definite
+  int saddle_escapes = 0;          ///< steps off a saddle along its lowest mode
   int energy_evaluations = 0;      ///< calls of Discretization::energy
   double initial_energy_J = 0;
   double energy_J = 0;            ///< Ψ at the returned q
@@ -286,6 +307,19 @@ class EquilibriumSolver {
   std::string converged_with_previous_factor(EquilibriumSummary* summary);
   bool backward_euler(Eigen::VectorXd* q, double* psi, double* time_step_s,
                       EquilibriumSummary* summary);
+  // k_shifted_ = K_ff + σ M_f (k_ff_ as it is), factorised; false when not positive definite.
+  bool factorise_shifted(double sigma, EquilibriumSummary* summary);
+  // The saddle escape (header comment, "Saddles"): true when q moved off the stationary point
+  // (Ψ lower, gradient_ and hessian_ at the new q).
+  bool escape_saddle(Eigen::VectorXd* q, double* psi, EquilibriumSummary* summary);
+  // The smallest σ ≥ 0 found with K_ff + σ M_f positive definite, its factor left in cholesky_
+  // (k_shifted_ holding the matrix); a negative value when none up to the stiffest dof's is.
+  double factorise_shifted_above_lowest_mode(EquilibriumSummary* summary);
+  // Inverse iteration with the factor of K_ff + σ M_f: the lowest mode v (M_f-normalised) and
+  // its λ = vᵀ K_ff v.
+  double lowest_mode(Eigen::VectorXd* v) const;
+  // Ψ lowered along ±v (header comment); false when no length lowers it beyond round-off.
+  bool step_along_mode(const Eigen::VectorXd& v, Eigen::VectorXd* q, double* psi, EquilibriumSummary* summary);
 
   // The steps of solve().
   // One Newton iterate's tests and direction: ‖g_f‖∞ against its tolerance, K_ff factorised,
@@ -293,6 +327,7 @@ class EquilibriumSolver {
   struct NewtonIterate {
     double gradient_norm = 0, force = 0, slope = 0;
     bool small_gradient = false, positive_definite = false, small_decrement = false;
+    int failed_column = -1;  ///< where K_ff's factorisation failed (−1: it did not)
   };
   NewtonIterate newton_direction(double psi, EquilibriumSummary* summary);
   // M_f, the free dofs' lumped masses for backward Euler (a massless dof given the mean mass).

@@ -323,6 +323,80 @@ TEST(EquilibriumSolver, BackwardEulerFailsafeEscapesAnIndefiniteStart) {
   EXPECT_LT((q - reference).lpNorm<Eigen::Infinity>(), 1e-9);
 }
 
+// A free node P held by three springs to anchors: two along x at ±a, longer at rest than a
+// (compressed), and one up to (0, 0, h), at rest and stiff enough to hold z. No gravity: P at the
+// origin is stationary by symmetry and K_ff is negative along y (the compressed springs'
+// geometric stiffness 2 k ε / L, ε < 0): a saddle, the toy form of a flat strip that should
+// wrinkle. `at_rest_along_x` makes the x springs exactly as long as a instead: K_ff is then singular
+// along y and z and Ψ rises quartically there, a degenerate minimum with no lower point near.
+struct CompressedStar {
+  static constexpr double kHalfSpan = 0.8, kRest = 1.0, kStiffness = 100.0;
+  static constexpr double kHeight = 0.5, kHoldStiffness = 100.0, kMass = 0.01;
+  SpringNetwork network;
+  explicit CompressedStar(bool at_rest_along_x = false)
+      : network(rest_positions(), springs(at_rest_along_x), Eigen::VectorXd::Constant(4, kMass)) {}
+  static Eigen::VectorXd rest_positions() {
+    Eigen::VectorXd rest(12);
+    rest << -kHalfSpan, 0, 0, kHalfSpan, 0, 0, 0, 0, kHeight, 0, 0, 0;  // A, B, C, then P
+    return rest;
+  }
+  static std::vector<SpringNetwork::Spring> springs(bool at_rest_along_x) {
+    const double along_x = at_rest_along_x ? kHalfSpan : kRest;
+    return {{0, 3, along_x, kStiffness}, {1, 3, along_x, kStiffness}, {2, 3, kHeight, kHoldStiffness}};
+  }
+  static std::vector<int> anchors() { return ConstrainedDofs::node_dofs({0, 1, 2}); }
+};
+
+TEST(EquilibriumSolver, EscapesASaddleAlongItsLowestMode) {
+  CompressedStar star;
+  Eigen::VectorXd start = star.network.rest_positions();
+  {  // The premise: stationary, and K_ff has a negative eigenvalue.
+    SparseMatrix h;
+    Eigen::VectorXd g;
+    star.network.energy(start, &g, &h);
+    EXPECT_LT(g.segment<3>(9).lpNorm<Eigen::Infinity>(), 1e-12);
+    EXPECT_LT(Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(Eigen::MatrixXd(h).block<3, 3>(9, 9)).eigenvalues()[0], 0.0);
+  }
+  EquilibriumOptions stop_there;
+  stop_there.max_saddle_escapes = 0;
+  Eigen::VectorXd q = start;
+  const EquilibriumSummary before = EquilibriumSolver(star.network, star.anchors(), stop_there).solve(&q);
+  EXPECT_EQ(before.status, EquilibriumStatus::kIndefiniteStationary) << before.message;
+
+  q = start;
+  EquilibriumSolver solver(star.network, star.anchors());
+  const EquilibriumSummary summary = solver.solve(&q);
+  std::printf("compressed star: %s; %d saddle escapes, %d Newton iterations, P at (%.6f, %.6f, %.6f), Psi %.6e -> %.6e J\n",
+              summary.message.c_str(), summary.saddle_escapes, summary.newton_iterations, q[9], q[10], q[11],
+              summary.initial_energy_J, summary.energy_J);
+  ASSERT_TRUE(summary.converged) << summary.message;
+  EXPECT_GE(summary.saddle_escapes, 1);
+  EXPECT_LT(summary.energy_J, summary.initial_energy_J);
+  EXPECT_GT(Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(Eigen::MatrixXd(solver.free_free_hessian())).eigenvalues()[0],
+            0.0);
+  // Buckled sideways (the x springs would be at rest at |y| = 0.6 without the hold) and the
+  // same minimum a plain Newton solve reaches from a guess on that side.
+  EXPECT_GT(std::fabs(q[10]), 0.3);
+  Eigen::VectorXd reference = start;
+  reference[10] = std::copysign(0.5, q[10]);
+  EquilibriumSolver reference_solver(star.network, star.anchors());
+  const EquilibriumSummary plain = reference_solver.solve(&reference);
+  ASSERT_TRUE(plain.converged) << plain.message;
+  EXPECT_EQ(plain.saddle_escapes, 0);
+  EXPECT_LT((q - reference).lpNorm<Eigen::Infinity>(), 1e-9);
+}
+
+TEST(EquilibriumSolver, ADegenerateMinimumIsNotEscapedFrom) {
+  CompressedStar star(/*at_rest_along_x=*/true);
+  Eigen::VectorXd q = star.network.rest_positions();
+  const EquilibriumSummary summary = EquilibriumSolver(star.network, star.anchors()).solve(&q);
+  EXPECT_EQ(summary.status, EquilibriumStatus::kIndefiniteStationary) << summary.message;
+  EXPECT_EQ(summary.saddle_escapes, 0);
+  EXPECT_EQ(q, star.network.rest_positions());
+  const std::string escapes = "0 of " + std::to_string(EquilibriumOptions{}.max_saddle_escapes) + " saddle escapes";
+  EXPECT_NE(summary.message.find(escapes), std::string::npos) << summary.message;
+}
+
 // The paper's stall rule (≤ 0.1 % energy reduction in 3 Newton steps) measures the decrease
 // against |Ψ|, which with gravity depends on where the origin is. The same hanging chain
 // 10 m higher has |Ψ| ≈ 51 J against an elastic change of 0.04 J, so the bare rule
@@ -717,6 +791,7 @@ TEST(EquilibriumOptions, ValidateNamesTheOffendingField) {
       {"initial_time_step_s", [](EquilibriumOptions* o) { o->initial_time_step_s = -1; }},
       {"time_step_growth", [](EquilibriumOptions* o) { o->time_step_growth = 1.0; }},
       {"max_time_step_reductions", [](EquilibriumOptions* o) { o->max_time_step_reductions = 0; }},
+      {"max_saddle_escapes", [](EquilibriumOptions* o) { o->max_saddle_escapes = -1; }},
       {"linear_solver.refinement_steps",
        [](EquilibriumOptions* o) { o->linear_solver.refinement_steps = -1; }},
   };
