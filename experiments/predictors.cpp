@@ -84,16 +84,10 @@ Eigen::VectorXd first_order_guess(const Eigen::VectorXd& q, const Eigen::MatrixX
 
 }  // namespace
 
-bool TensilePredictor::predict(const MaterialParameters& k, const std::vector<int>& flat,
-                               Eigen::VectorXd* values, Eigen::MatrixXd* jacobian,
-                               std::string* message) {
-  use_angle_sensitivity(false);
-  experiment_.set_parameters(k);
-  experiment_.set_sensitivity_parameters(jacobian ? flat : std::vector<int>{});
-  experiment_.set_keep_states(jacobian != nullptr && warm_start_);
-
-  const Eigen::VectorXd k_flat = k.to_flat();
-  const bool force = observable_ == StripObservable::Force;
+// The curve at k: from the anchor's states moved to first order when there is an anchor (then
+// checked: a failed or off-branch warm start is solved again from the flat strip), else along
+// the loading schedule from the flat strip. Counts the failed attempts' solves.
+TensileCurve TensilePredictor::solve_curve(const MaterialParameters& k, const Eigen::VectorXd& k_flat, bool force) {
   TensileCurve curve;
   const bool anchored = warm_start_ && anchor_q_.size() == extensions_mm_.size() &&
                         anchor_k_.size() == k_flat.size();
@@ -136,24 +130,43 @@ bool TensilePredictor::predict(const MaterialParameters& k, const std::vector<in
   } else {
     curve = experiment_.run(extensions_mm_);
   }
+  return curve;
+}
+
+// The evaluation just made becomes the anchor of the next warm start: k, the free columns, the
+// values and Jacobian, and each point's state with its ∂q/∂k (moved out of `curve`).
+void TensilePredictor::keep_anchor(const Eigen::VectorXd& k_flat, const std::vector<int>& flat,
+                                   const Eigen::VectorXd& values, const Eigen::MatrixXd& jacobian, TensileCurve* curve) {
+  anchor_k_ = k_flat;
+  anchor_flat_ = flat;
+  anchor_values_ = values;
+  anchor_jacobian_ = jacobian;
+  anchor_q_.resize(curve->points.size());
+  anchor_dq_.resize(curve->points.size());
+  for (size_t i = 0; i < curve->points.size(); ++i) {
+    anchor_q_[i] = std::move(curve->points[i].q);
+    anchor_dq_[i] = std::move(curve->points[i].dq_dk);
+  }
+}
+
+bool TensilePredictor::predict(const MaterialParameters& k, const std::vector<int>& flat,
+                               Eigen::VectorXd* values, Eigen::MatrixXd* jacobian,
+                               std::string* message) {
+  use_angle_sensitivity(false);
+  experiment_.set_parameters(k);
+  experiment_.set_sensitivity_parameters(jacobian ? flat : std::vector<int>{});
+  experiment_.set_keep_states(jacobian != nullptr && warm_start_);
+
+  const Eigen::VectorXd k_flat = k.to_flat();
+  const bool force = observable_ == StripObservable::Force;
+  TensileCurve curve = solve_curve(k, k_flat, force);
   for (const TensilePoint& p : curve.points) solves_ += 1 + p.solve.fallbacks;
   if (!curve.completed) {
     if (message) *message = curve.message;
     return false;
   }
   read_curve(curve, force, values, jacobian, flat.size());
-  if (jacobian && warm_start_) {
-    anchor_k_ = k_flat;
-    anchor_flat_ = flat;
-    anchor_values_ = *values;
-    anchor_jacobian_ = *jacobian;
-    anchor_q_.resize(curve.points.size());
-    anchor_dq_.resize(curve.points.size());
-    for (size_t i = 0; i < curve.points.size(); ++i) {
-      anchor_q_[i] = std::move(curve.points[i].q);
-      anchor_dq_[i] = std::move(curve.points[i].dq_dk);
-    }
-  }
+  if (jacobian && warm_start_) keep_anchor(k_flat, flat, *values, *jacobian, &curve);
   last_curve_ = std::move(curve);
   return true;
 }

@@ -86,6 +86,11 @@ class TensilePredictor : public Experiment {
   bool angle_sensitivity_on_ = false;  ///< whether experiment_ holds its turned meshes
   /// Turns the engine's angle sensitivity on or off, rebuilding nothing when it already is.
   void use_angle_sensitivity(bool on);
+  // The steps of predict(): the curve at k (warm-started from the anchor where there is one,
+  // checked, else from the flat strip), and the evaluation kept as the next anchor.
+  TensileCurve solve_curve(const MaterialParameters& k, const Eigen::VectorXd& k_flat, bool force);
+  void keep_anchor(const Eigen::VectorXd& k_flat, const std::vector<int>& flat, const Eigen::VectorXd& values,
+                   const Eigen::MatrixXd& jacobian, TensileCurve* curve);
   long solves_ = 0;
   long branch_retries_ = 0;
   TensileCurve last_curve_;
