@@ -303,6 +303,7 @@ double EquilibriumSolver::factorise_shifted_above_lowest_mode(EquilibriumSummary
     for (SparseMatrix::InnerIterator it(k_ff_, row); it; ++it) absolute_row += std::fabs(it.value());
     stiffest = std::max(stiffest, absolute_row / mass_f_[row]);
   }
+  if (!(stiffest > 0) || !std::isfinite(stiffest)) return -1;  // K_ff = 0: no mode to follow
   double failed = 0, works = kShiftStartFraction * stiffest;
   while (!factorise_shifted(works, s)) {
     failed = works;

@@ -397,6 +397,16 @@ TEST(EquilibriumSolver, ADegenerateMinimumIsNotEscapedFrom) {
   EXPECT_NE(summary.message.find(escapes), std::string::npos) << summary.message;
 }
 
+// Springs without stiffness: Ψ, g and K_ff all zero. The escape finds no shift to start from and
+// the solve ends at once, reported (a zero start for the shift's doubling never grew).
+TEST(EquilibriumSolver, NoStiffnessAtAllEndsReportedInsteadOfSearching) {
+  SpringNetwork limp = SpringNetwork::chain(3, Eigen::Vector3d::Zero(), Eigen::Vector3d(0.3, 0, 0), 0.1, 0.0, 0.01);
+  Eigen::VectorXd q = limp.rest_positions();
+  const EquilibriumSummary summary = EquilibriumSolver(limp, ConstrainedDofs::node_dofs({0, 3})).solve(&q);
+  EXPECT_EQ(summary.status, EquilibriumStatus::kIndefiniteStationary) << summary.message;
+  EXPECT_EQ(summary.saddle_escapes, 0);
+}
+
 // The paper's stall rule (≤ 0.1 % energy reduction in 3 Newton steps) measures the decrease
 // against |Ψ|, which with gravity depends on where the origin is. The same hanging chain
 // 10 m higher has |Ψ| ≈ 51 J against an elastic change of 0.04 J, so the bare rule
