@@ -155,7 +155,8 @@ def write_tables(out, rows):
         held = c.get("held_out") or {}
         p = c.get("p_value")
         lines.append(f"| {r.get('spec', r['effect'])} | {'hidden' if r['hidden'] else 'twin'} | {r['scatter']:g} | {r['seed']} | "
-                     f"{r['verdict']}{' (the same data as ' + r['same_data_as'] + ')' if r.get('same_data_as') else ''} | "
+                     f"{r['verdict'].replace('|', chr(92) + '|')}"  # a tie's A|B inside a table cell
+                     f"{' (the same data as ' + r['same_data_as'] + ')' if r.get('same_data_as') else ''} | "
                      f"{', '.join(r['named']) or '—'} | "
                      f"{pct(c.get('error_without'))} → {pct(c.get('error_with'))} ({'—' if p is None else f'{p:.2g}'}) | "
                      f"{'{:.2f} → {:.2f}'.format(*c['excess']) if c.get('excess') else '—'} | "
