@@ -7,7 +7,7 @@ candidate the hidden dataset can test is testable on the twin too), each given t
 `twill discover`.
 
     rates.py TWILL OUTDIR [--effects SPEC ...] [--seeds 1 2 3 4 5] [--scatter 0.10 0.20]
-             [--speeds MM_MIN ...] [--repeats N] [--set KEY=VALUE ...] [--no-twins] [--table-only]
+             [--speeds MM_MIN ...] [--repeats N] [--set KEY=VALUE ...] [--no-twins | --no-hidden] [--table-only]
              [--record DIR]
     rates.py TWILL OUTDIR --groups papers/discovery/table.yaml [--table-only] [--record DIR]
 
@@ -188,7 +188,7 @@ def run_group(twill, out, group, library, table_only, record=None):
         for seed in group["seeds"]:
             for spec_name in group["effects"]:
                 effect = effect_of(spec_name, library + OUTSIDE_THE_LIBRARY)
-                for hidden in (True, False) if group["twins"] else (True,):
+                for hidden in [h for h, wanted in ((True, group["hidden"]), (False, group["twins"])) if wanted]:
                     tag = tag_of(spec_name, scatter, seed, hidden)
                     row = recorded_row(record, tag)
                     if not row:
@@ -286,7 +286,7 @@ def run_dataset(twill, out, group, spec_name, effect, scatter, seed, hidden, tab
 
 # A group's keys and their defaults (the command line's, and a groups file's entries').
 GROUP_KEYS = {"effects": None, "seeds": [1, 2, 3, 4, 5], "scatter": [0.10, 0.20], "speeds": None, "repeats": None,
-              "overrides": DEFAULT_SET, "twins": True}
+              "overrides": DEFAULT_SET, "twins": True, "hidden": True}
 
 
 def read_groups(path, library):
@@ -307,6 +307,8 @@ def read_groups(path, library):
         group = dict(GROUP_KEYS)
         group.update(entry)
         group["effects"] = group["effects"] or library
+        if not group["twins"] and not group["hidden"]:
+            raise SystemExit(f"{where} ({entry['name']}): twins and hidden both false leave nothing to run")
         message = check_effects(group["effects"], library, f"{where} ({entry['name']}) effects")
         if message:
             raise SystemExit(message)
@@ -339,6 +341,8 @@ def describe(group):
     parts.append(f"--set {' '.join(group['overrides'])}")
     if not group["twins"]:
         parts.append("--no-twins")
+    if not group["hidden"]:
+        parts.append("--no-hidden")
     return "`" + " ".join(parts) + "`"
 
 
@@ -358,6 +362,7 @@ def main():
     parser.add_argument("--repeats", type=int, help="specimens per test and speed")
     parser.add_argument("--set", nargs="*", default=GROUP_KEYS["overrides"], dest="overrides")
     parser.add_argument("--no-twins", action="store_true", help="only the datasets with the effect hidden")
+    parser.add_argument("--no-hidden", action="store_true", help="only the null twins (null data at more seeds)")
     parser.add_argument("--table-only", action="store_true", help="rewrite the tables from what has run")
     parser.add_argument("--record", help="keep each dataset's row in RECORD/<tag>.json (with --groups, "
                         "RECORD/<group name>/<tag>.json); a recorded dataset is not run again")
@@ -373,7 +378,10 @@ def main():
             write_combined(args.out, done)
         return
     group = {"effects": args.effects or library, "seeds": args.seeds, "scatter": args.scatter, "speeds": args.speeds,
-             "repeats": args.repeats, "overrides": args.overrides, "twins": not args.no_twins}
+             "repeats": args.repeats, "overrides": args.overrides, "twins": not args.no_twins,
+             "hidden": not args.no_hidden}
+    if args.no_twins and args.no_hidden:
+        parser.error("--no-twins and --no-hidden leave nothing to run")
     message = check_effects(group["effects"], library, "--effects")
     if message:
         parser.error(message)
