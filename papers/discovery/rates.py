@@ -14,7 +14,8 @@ candidate the hidden dataset can test is testable on the twin too), each given t
 --groups runs each group of a groups file (the whole table of papers/discovery/README.md is
 table.yaml: the one-speed effects and the loop effects at two speeds, at both scatter levels)
 into OUTDIR/<group name> with the group's own settings, and writes the combined table to
-OUTDIR/rates.md and rates.json.
+OUTDIR/rates.md and rates.json, and every group's counts in one table to OUTDIR/rates-summary.md
+(the README's).
 
 --effects names specs of papers/hidden_effects: an effect (its spec), EFFECT-VARIANT (e.g.
 misalignment-validation: validation strips beside the fit tests), or a mechanism outside the
@@ -133,19 +134,30 @@ def classify(row):
     return "false" if row["named"] else "none"
 
 
+KINDS = ["named", "named+false", "false", "tied", "untestable", "unexplained", "failed", "none"]
+
+
+def count_lines(rows, group=None):
+    """The rates table of `rows`: a line per (spec, scatter, hidden or twin) with the count of each
+    kind (classify); with `group`, its name in a first column (the summary over groups)."""
+    counted = {}
+    for r in rows:
+        if not r.get("same_data_as"):  # counted once, under the twin that ran
+            counted.setdefault((r.get("spec", r["effect"]), r["scatter"], r["hidden"]), []).append(classify(r))
+    first, rule = ("| group ", "|---") if group is not None else ("", "")
+    lines = [first + "| spec (hidden effect) | data | scatter | datasets | " + " | ".join(KINDS) + " |",
+             rule + "|---|---|---|---|" + "---|" * len(KINDS)]
+    for (effect, scatter, hidden), got in sorted(counted.items()):
+        lines.append((f"| {group} " if group is not None else "") +
+                     f"| {effect} | {'hidden' if hidden else 'twin (none)'} | {scatter:g} | {len(got)} | " +
+                     " | ".join(str(got.count(k)) for k in KINDS) + " |")
+    return lines
+
+
 def write_tables(out, rows):
     with open(os.path.join(out, "rates.json"), "w") as f:
         json.dump(rows, f, indent=1)
-    kinds = ["named", "named+false", "false", "tied", "untestable", "unexplained", "failed", "none"]
-    groups = {}
-    for r in rows:
-        if not r.get("same_data_as"):  # counted once, under the twin that ran
-            groups.setdefault((r.get("spec", r["effect"]), r["scatter"], r["hidden"]), []).append(classify(r))
-    lines = ["| spec (hidden effect) | data | scatter | datasets | " + " | ".join(kinds) + " |",
-             "|---|---|---|---|" + "---|" * len(kinds)]
-    for (effect, scatter, hidden), got in sorted(groups.items()):
-        lines.append(f"| {effect} | {'hidden' if hidden else 'twin (none)'} | {scatter:g} | {len(got)} | " +
-                     " | ".join(str(got.count(k)) for k in kinds) + " |")
+    lines = count_lines(rows)
     lines += ["", "| spec (hidden effect) | data | scatter | seed | verdict | named | its error without → with (p) | "
               "its excess over the floors [points] | held-out without → with | time |",
               "|---|---|---|---|---|---|---|---|---|---|"]
@@ -328,6 +340,12 @@ def write_combined(out, groups_rows):
         f.write("\n".join(lines))
     with open(os.path.join(out, "rates.json"), "w") as f:
         json.dump({g["name"]: rows for g, rows in groups_rows}, f, indent=1)
+    summary = ["# The rates of `twill discover`, every group's counts in one table (papers/discovery/rates.py --groups)",
+               ""] + count_lines([], group="")[:2]
+    for group, rows in groups_rows:
+        summary += count_lines(rows, group=group["name"])[2:]
+    with open(os.path.join(out, "rates-summary.md"), "w") as f:
+        f.write("\n".join(summary) + "\n")
 
 
 def describe(group):
