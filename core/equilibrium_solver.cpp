@@ -277,9 +277,10 @@ bool EquilibriumSolver::factorise_shifted(double sigma, EquilibriumSummary* summ
 
 namespace {
 // The saddle escape's constants (header comment, "Saddles").
-// σ starts at this fraction of the largest K_ii / m_i (far below any mode that matters) and is
-// doubled until K_ff + σ M_f factorises, at most up to the largest ratio itself (Gershgorin:
-// every λ ≥ −max Σ_j |K_ij| / m_i; a σ beyond the stiffest dof's means something else is wrong).
+// σ starts at this fraction of the largest Σ_j |K_ij| / m_i (far below any mode that matters)
+// and is doubled until K_ff + σ M_f factorises, at most up to twice that bound (Gershgorin on
+// M_f⁻¹K_ff, whose eigenvalues are the λ: every λ ≥ −max_i Σ_j |K_ij| / m_i, so beyond it the
+// shifted matrix is positive definite and a failure there means something else is wrong).
 constexpr double kShiftStartFraction = 1e-12;
 // Bisections of σ between the last failure and the first success: σ within 2⁻⁸ of the
 // bracket above −λ_min, so inverse iteration's ratio (λ₁ + σ)/(λ₂ + σ) is small.
