@@ -18,6 +18,8 @@ import os
 import subprocess
 import time
 
+from rates import table_cell  # noqa: E402  (papers/discovery/rates.py, beside this file)
+
 # What a candidate's comparison reads from discover.json.
 CANDIDATE_KEYS = ("status", "error_without", "error_with", "p_value")
 
@@ -77,8 +79,7 @@ def main():
             other = json.load(f)
         found = differences(table, other)
         took = other.get("time_s", seconds or 0.0)
-        cell = lambda text: text.replace("|", "\\|")  # a tie's A|B inside a table cell
-        lines.append(f"| {tag} | {cell(table['verdict'])} | {cell('same' if not found else '; '.join(found))} | "
+        lines.append(f"| {tag} | {table_cell(table['verdict'])} | {table_cell('; '.join(found) or 'same')} | "
                      f"{table.get('time_s', 0):.0f} s, {took:.0f} s |")
         print(lines[-1], flush=True)
     if args.table:

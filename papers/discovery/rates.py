@@ -134,6 +134,11 @@ def classify(row):
     return "false" if row["named"] else "none"
 
 
+def table_cell(text):
+    """`text` inside a markdown table cell: a tie's `A|B` escaped."""
+    return text.replace("|", "\\|")
+
+
 KINDS = ["named", "named+false", "false", "tied", "untestable", "unexplained", "failed", "none"]
 
 
@@ -167,7 +172,7 @@ def write_tables(out, rows):
         held = c.get("held_out") or {}
         p = c.get("p_value")
         lines.append(f"| {r.get('spec', r['effect'])} | {'hidden' if r['hidden'] else 'twin'} | {r['scatter']:g} | {r['seed']} | "
-                     f"{r['verdict'].replace('|', chr(92) + '|')}"  # a tie's A|B inside a table cell
+                     f"{table_cell(r['verdict'])}"
                      f"{' (the same data as ' + r['same_data_as'] + ')' if r.get('same_data_as') else ''} | "
                      f"{', '.join(r['named']) or '—'} | "
                      f"{pct(c.get('error_without'))} → {pct(c.get('error_with'))} ({'—' if p is None else f'{p:.2g}'}) | "
@@ -185,6 +190,11 @@ def check_effects(effects, library, where):
                 f"nor one outside the library ({', '.join(OUTSIDE_THE_LIBRARY)})")
     missing = [spec_path(e) for e in effects if not os.path.exists(spec_path(e))]
     return f"{where}: no spec {', '.join(missing)}" if missing else None
+
+
+def check_datasets(group, where):
+    """A message when the group runs neither hidden datasets nor twins, else None."""
+    return None if group["twins"] or group["hidden"] else f"{where}: neither hidden datasets nor twins: nothing to run"
 
 
 def run_group(twill, out, group, library, table_only, record=None):
@@ -319,9 +329,8 @@ def read_groups(path, library):
         group = dict(GROUP_KEYS)
         group.update(entry)
         group["effects"] = group["effects"] or library
-        if not group["twins"] and not group["hidden"]:
-            raise SystemExit(f"{where} ({entry['name']}): twins and hidden both false leave nothing to run")
-        message = check_effects(group["effects"], library, f"{where} ({entry['name']}) effects")
+        message = check_effects(group["effects"], library, f"{where} ({entry['name']}) effects") or \
+            check_datasets(group, f"{where} ({entry['name']})")
         if message:
             raise SystemExit(message)
         groups.append(group)
@@ -398,9 +407,7 @@ def main():
     group = {"effects": args.effects or library, "seeds": args.seeds, "scatter": args.scatter, "speeds": args.speeds,
              "repeats": args.repeats, "overrides": args.overrides, "twins": not args.no_twins,
              "hidden": not args.no_hidden}
-    if args.no_twins and args.no_hidden:
-        parser.error("--no-twins and --no-hidden leave nothing to run")
-    message = check_effects(group["effects"], library, "--effects")
+    message = check_effects(group["effects"], library, "--effects") or check_datasets(group, "--no-twins with --no-hidden")
     if message:
         parser.error(message)
     run_group(args.twill, args.out, group, library, args.table_only, args.record)
