@@ -24,6 +24,7 @@ inline constexpr const char* kUnexplained = "unexplained";
 inline constexpr const char* kEffectFitStage = "effect-fit";
 inline constexpr const char* kTensileCurveStage = "tensile-curve";
 inline constexpr const char* kFinalCurvesStage = "final-curves";
+inline constexpr const char* kStrainCutoffStage = "strain-cutoff";
 inline constexpr const char* kBendStage = "bend";
 inline constexpr const char* kInitialGuessStage = "initial-guess";
 // curve-degree raises each curve while a raise lowers its error by at least this fraction: the

@@ -10,6 +10,7 @@
 #include <cstdio>
 
 #include "fitting/discovery.hpp"
+#include "fitting/discovery_detail.hpp"
 #include "fitting/repeat_branches.hpp"
 
 namespace twill {
@@ -320,6 +321,40 @@ TEST(DiscoverJudge, AMisfitThatTheEffectsFloorsHoldIsUnexplainedAgainstTheRepeat
   r.gap[1].repeat_floor = 0.005;
   const std::string verdict = unexplained_misfit(r, 2.0, nullptr);
   EXPECT_EQ(verdict.rfind("unexplained at warp", 0), 0u) << verdict;  // 9.1× against weft's 7.8×
+}
+
+// When no candidate was fitted (each untestable or failed) the gap is the baseline's own fit
+// curves, so a misfit against the repeats' scatter is still found: a yarn-damage dataset whose
+// every candidate failed read `none` with an empty gap (papers/discovery, session 36).
+TEST(DiscoverJudge, WithNoCandidateFittedTheGapIsTheBaselinesFitCurves) {
+  const auto curve = [](const std::string& test, const std::string& role, std::vector<double> measured,
+                        std::vector<double> simulated) {
+    FitCurve c;
+    c.label = test;
+    c.role = role;
+    c.measured_N = std::move(measured);
+    c.simulated_N = std::move(simulated);
+    return c;
+  };
+  DiscoverResult r;
+  r.baseline.fit = {curve("warp", "fit", {10, 20}, {11, 19}), curve("warp", "fit", {10, 20}, {10, 20}),
+                    curve("weft", "fit", {5, 5}, {5, 5.1})};
+  r.baseline.validation = {curve("bias-22.5", "validation", {1, 1}, {3, 3})};
+  std::vector<DiscoverGap> gap;
+  std::string rows;
+  std::vector<FitEffectCurve> curves;
+  discover_detail::measure_gap(r, {}, &gap, &rows, &curves);
+  ASSERT_EQ(gap.size(), 2u);
+  EXPECT_EQ(gap[0].test, "warp");
+  EXPECT_DOUBLE_EQ(gap[0].before, 2.0 / 60.0);  // Σ|p̂ − p̆| / Σ|p̆| over both runs
+  EXPECT_DOUBLE_EQ(gap[0].after, gap[0].before);
+  EXPECT_TRUE(std::isnan(gap[0].floor));
+  EXPECT_NEAR(gap[1].before, 0.01, 1e-12);
+  EXPECT_NE(rows.find("baseline"), std::string::npos) << rows;
+  r.gap = gap;
+  r.gap[0].repeat_floor = 0.005;  // warp 6.7× its repeats' scatter
+  r.gap[1].repeat_floor = 0.008;  // weft 1.25×
+  EXPECT_EQ(unexplained_misfit(r, 2.0, nullptr).rfind("unexplained at warp", 0), 0u);
 }
 
 // Three specimens of one test: a curve times each specimen's scale, with relative noise of sd

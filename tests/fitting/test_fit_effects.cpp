@@ -982,9 +982,11 @@ TEST(Discover, TheBaselineAimsItsDegreeSearchAtTheRepeatsScatter) {
     if (stage.name == "tensile-curve")
       EXPECT_DOUBLE_EQ(stage.options.get_double("target_error"), expected.at(stage.options.get_string("label")))
           << stage.options.get_string("label");
-  ASSERT_FALSE(notes.empty());
-  EXPECT_NE(notes.back().find("warp 1.00 → "), std::string::npos) << notes.back();
-  EXPECT_EQ(notes.back().find("weft"), std::string::npos) << notes.back();
+  const auto aim = std::find_if(notes.begin(), notes.end(),
+                               [](const std::string& n) { return n.find("target_error") != std::string::npos; });
+  ASSERT_NE(aim, notes.end());
+  EXPECT_NE(aim->find("warp 1.00 → "), std::string::npos) << *aim;
+  EXPECT_EQ(aim->find("weft"), std::string::npos) << *aim;
   // The second pass is taken when an angle's fit runs end above its target on average.
   FitReport report;
   const auto run = [](const std::string& label, double angle, double error) {
@@ -1004,6 +1006,54 @@ TEST(Discover, TheBaselineAimsItsDegreeSearchAtTheRepeatsScatter) {
   report.fit[1].avg_rel_error = warp;
   report.fit.push_back(run("bias", 45, 0.03));  // bias' mean 2.45 % against its 2 %
   EXPECT_EQ(baseline_above_target(report, baseline).rfind("bias ", 0), 0u) << baseline_above_target(report, baseline);
+}
+
+// The baseline sets each strain cutoff at 99 % of the largest strain its fit strips see, not at
+// the paper's 95 % (§5.2 steps 4, 6): above the cutoff the law is its quadratic extrapolation
+// (§3.2), which the top of a stiffening curve cannot follow. Measured on a null twin's weft
+// (tests/data/datasets/null-twin-6, degree 2, no effect): 0.38 % at the curve stage; with the
+// cutoff at 95 % the ladder's refit (converged) ends at 1.38 %, at 99 % at 0.37 %. On the twin
+// of seed 8 the 95 % cutoffs read `unexplained at weft-300` (1.64 % against the repeats'
+// 0.17 %); papers/discovery/README.md, session 36.
+TEST(Discover, TheBaselineCutsOffNearTheLargestStrainItsStripsSee) {
+  const Dataset dataset = read_dataset(std::string(TWILL_SOURCE_DIR) + "/tests/data/datasets/null-twin-6");
+  const std::string curves =
+      "{name: initial-guess}, {name: tensile-curve, label: warp, angle_deg: 90, term: eta1, max_degree: 2},"
+      " {name: tensile-curve, label: weft, angle_deg: 0, term: eta3, max_degree: 2, target_error: 0.0026}";
+  std::vector<std::string> notes;
+  const Options baseline = discover_baseline_config(
+      dataset,
+      discover_config({"protocol=[" + curves +
+                       ", {name: strain-cutoff, stage: warp, fraction: 1.0}, {name: strain-cutoff, stage: weft},"
+                       " {name: resolution-ladder}]"}),
+      registry(), &notes);
+  int cutoffs = 0;
+  for (const ComponentChoice& stage : baseline.get_component_list("protocol"))
+    if (stage.name == "strain-cutoff") {
+      EXPECT_EQ(stage.options.get_double("fraction"), stage.options.get_string("stage") == "warp" ? 1.0 : 0.99)
+          << stage.options.get_string("stage");
+      ++cutoffs;
+    }
+  EXPECT_EQ(cutoffs, 2);
+  ASSERT_FALSE(notes.empty());
+  EXPECT_NE(notes.back().find("the config had weft 0.95)"), std::string::npos) << notes.back();
+
+  // Why: the weft's error at the end of a fit with its cutoff at either fraction.
+  const auto weft_error = [&](double fraction) {
+    const Options config = discover_config(
+        {"resolution.coarse_cells_across=4", "data.max_points=20", "repeats.rule=all", "repeats.scale=per-run",
+         "protocol=[" + curves + ", {name: strain-cutoff, stage: weft, fraction: " + std::to_string(fraction) +
+             "}, {name: resolution-ladder}]"});
+    const FitReport report = run_fit(dataset, discover_fit_config(config), registry(), {});
+    const auto last = std::find_if(report.stages.rbegin(), report.stages.rend(),
+                                   [](const FitStageRecord& r) { return r.stage == "weft"; });
+    return last == report.stages.rend() ? std::nan("") : last->avg_rel_error;  // the ladder's refit
+  };
+  const double paper = weft_error(0.95), data = weft_error(0.99);
+  std::printf("[measured] weft after its cutoff: %.2f %% at 95 %% of the largest strain, %.2f %% at 99 %%\n",
+              100 * paper, 100 * data);
+  EXPECT_GT(paper, 2.5 * data);
+  EXPECT_LT(data, 0.005);
 }
 
 }  // namespace
