@@ -295,7 +295,7 @@ constexpr double kEscapeFirstStep = 1e-4, kEscapeShortestStep = 1e-10;
 constexpr unsigned kModeStartSeed = 20261207;  // any fixed seed: a reproducible start vector
 }  // namespace
 
-double EquilibriumSolver::factorise_shifted_above_lowest_mode(EquilibriumSummary* s) {
+bool EquilibriumSolver::factorise_shifted_above_lowest_mode(EquilibriumSummary* s) {
   const std::vector<int>& diagonal = dofs_.free_free_diagonal();
   double stiffest = 0;
   for (size_t i = 0; i < diagonal.size(); ++i) {
@@ -304,19 +304,18 @@ double EquilibriumSolver::factorise_shifted_above_lowest_mode(EquilibriumSummary
     for (SparseMatrix::InnerIterator it(k_ff_, row); it; ++it) absolute_row += std::fabs(it.value());
     stiffest = std::max(stiffest, absolute_row / mass_f_[row]);
   }
-  if (!(stiffest > 0) || !std::isfinite(stiffest)) return -1;  // K_ff = 0: no mode to follow
+  if (!(stiffest > 0) || !std::isfinite(stiffest)) return false;  // K_ff = 0: no mode to follow
   double failed = 0, works = kShiftStartFraction * stiffest;
   while (!factorise_shifted(works, s)) {
     failed = works;
     works *= 2;
-    if (!(works <= 2 * stiffest)) return -1;
+    if (!(works <= 2 * stiffest)) return false;
   }
   for (int i = 0; i < kShiftBisections; ++i) {
     const double middle = 0.5 * (failed + works);
     (factorise_shifted(middle, s) ? works : failed) = middle;
   }
-  if (!factorise_shifted(works, s)) return -1;  // the bisection's last trial may have failed
-  return works;
+  return factorise_shifted(works, s);  // the bisection's last trial may have failed
 }
 
 double EquilibriumSolver::lowest_mode(Eigen::VectorXd* v) const {
@@ -365,7 +364,7 @@ bool EquilibriumSolver::step_along_mode(const Eigen::VectorXd& v, Eigen::VectorX
 }
 
 bool EquilibriumSolver::escape_saddle(Eigen::VectorXd* q, double* psi, EquilibriumSummary* s) {
-  if (factorise_shifted_above_lowest_mode(s) < 0) return false;
+  if (!factorise_shifted_above_lowest_mode(s)) return false;
   Eigen::VectorXd mode;
   const double lambda = lowest_mode(&mode);
   if (!(lambda < 0) || !step_along_mode(mode, q, psi, s)) return false;

@@ -312,9 +312,10 @@ class EquilibriumSolver {
   // The saddle escape (header comment, "Saddles"): true when q moved off the stationary point
   // (Ψ lower, gradient_ and hessian_ at the new q).
   bool escape_saddle(Eigen::VectorXd* q, double* psi, EquilibriumSummary* summary);
-  // The smallest σ ≥ 0 found with K_ff + σ M_f positive definite, its factor left in cholesky_
-  // (k_shifted_ holding the matrix); a negative value when none up to the stiffest dof's is.
-  double factorise_shifted_above_lowest_mode(EquilibriumSummary* summary);
+  // K_ff + σ M_f factorised with the smallest σ ≥ 0 found that makes it positive definite, the
+  // factor left in cholesky_ (k_shifted_ holding the matrix); false when none up to the
+  // stiffest dof's is.
+  bool factorise_shifted_above_lowest_mode(EquilibriumSummary* summary);
   // Inverse iteration with the factor of K_ff + σ M_f: the lowest mode v (M_f-normalised) and
   // its λ = vᵀ K_ff v.
   double lowest_mode(Eigen::VectorXd* v) const;
