@@ -216,27 +216,6 @@ double largest_misfit(const DiscoverWork& work, const DiscoverResult& result, st
   return largest;
 }
 
-// The fit runs' errors of a fit's final curves (report.fit: each run at its kept specimen scale)
-// as an effect-fit record's error_with and per-test errors: what curve-degree is measured on
-// when no tested effect's rows are the tensile runs'.
-FitEffect fit_runs_error(const FitReport& report) {
-  FitEffect e;
-  std::vector<double> errors;
-  for (const FitCurve& c : report.fit) {
-    auto t = std::find_if(e.tests.begin(), e.tests.end(), [&](const FitEffectTest& x) { return x.test == c.label; });
-    if (t == e.tests.end()) t = e.tests.insert(t, FitEffectTest{c.label, 0, 0, 0});
-    t->error_with += c.avg_rel_error;
-    ++t->runs;
-    errors.push_back(c.avg_rel_error);
-    e.points += static_cast<int>(c.measured_N.size());
-  }
-  if (errors.empty()) throw std::runtime_error("the fit recorded no fit-run curves to measure the richer curves on");
-  for (FitEffectTest& t : e.tests) t.error_with /= t.runs;
-  e.runs = static_cast<int>(errors.size());
-  e.error_with = mean(errors);
-  return e;
-}
-
 // The misfit on an angle-offset effect's own rows, the fit runs' loading (the baseline's curves,
 // fit_runs_error), as a multiple of each test's effects' floor — the floor its judge's real
 // misfit is measured against (judge_one). NaN without floors (no score-tested candidate) or

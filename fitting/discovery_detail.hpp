@@ -45,6 +45,9 @@ const FitEffect* record_of(const std::vector<FitEffect>& records, const std::str
 std::vector<DiscoverCandidate>::iterator find_candidate(DiscoverResult* result, const std::string& name);
 /// The names of the candidates with `status`, in the candidates' order.
 std::vector<std::string> with_status(const DiscoverResult& result, const std::string& status);
+/// The fit runs' errors of a fit's final curves (report.fit), per test and overall, as an
+/// effect-fit record's error_with (discovery_judge.cpp).
+FitEffect fit_runs_error(const FitReport& report);
 /// The gap per test (discovery_judge.cpp).
 void measure_gap(const DiscoverResult& result, const std::map<std::string, double>& floors,
                  std::vector<DiscoverGap>* gap, std::string* rows, std::vector<FitEffectCurve>* curves);

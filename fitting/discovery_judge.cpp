@@ -75,25 +75,36 @@ std::vector<std::string> with_status(const DiscoverResult& result, const std::st
   return out;
 }
 
-// The gap per test when no candidate was fitted (each untestable or failed): the baseline's fit
-// curves, Σ|p̂ − p̆| / Σ|p̆| over a test's runs (loading rows), before = after. Without it the
-// gap was empty, so no test could be found unexplained and the verdict read `none` over a
-// baseline missing its repeats' scatter (a yarn-damage dataset whose every candidate failed,
-// papers/discovery/README.md, session 36).
-void gap_from_baseline(const DiscoverResult& result, std::vector<DiscoverGap>* gap, std::string* rows) {
-  std::map<std::string, std::pair<double, double>> sums;  // test: Σ|p̂ − p̆|, Σ|p̆|
-  for (const FitCurve& c : result.baseline.fit) {
-    if (c.role != "fit") continue;
-    auto& [misfit, measured] = sums[c.label];
-    for (size_t i = 0; i < c.measured_N.size() && i < c.simulated_N.size(); ++i) {
-      misfit += std::abs(c.simulated_N[i] - c.measured_N[i]);
-      measured += std::abs(c.measured_N[i]);
-    }
+// The fit runs' errors of a fit's final curves (report.fit: each run at its kept specimen scale)
+// as an effect-fit record's error_with and per-test errors: what curve-degree is measured on
+// when no tested effect's rows are the tensile runs'.
+FitEffect fit_runs_error(const FitReport& report) {
+  FitEffect e;
+  std::vector<double> errors;
+  for (const FitCurve& c : report.fit) {
+    auto t = std::find_if(e.tests.begin(), e.tests.end(), [&](const FitEffectTest& x) { return x.test == c.label; });
+    if (t == e.tests.end()) t = e.tests.insert(t, FitEffectTest{c.label, 0, 0, 0});
+    t->error_with += c.avg_rel_error;
+    ++t->runs;
+    errors.push_back(c.avg_rel_error);
+    e.points += static_cast<int>(c.measured_N.size());
   }
-  for (const auto& [test, s] : sums)
-    if (s.second > 0)
-      gap->push_back({test, s.first / s.second, s.first / s.second, std::numeric_limits<double>::quiet_NaN()});
-  if (!gap->empty()) *rows = "the baseline's fit curves (no candidate was fitted; before = after)";
+  if (errors.empty()) throw std::runtime_error("the fit recorded no fit-run curves to measure the richer curves on");
+  for (FitEffectTest& t : e.tests) t.error_with /= t.runs;
+  e.runs = static_cast<int>(errors.size());
+  e.error_with = mean(errors);
+  return e;
+}
+
+// The gap per test when no candidate was fitted (each untestable or failed): the baseline's fit
+// runs' errors (fit_runs_error), before = after. Without it the gap was empty, so no test could
+// be found unexplained and the verdict read `none` over a baseline missing its repeats' scatter
+// (a yarn-damage dataset whose every candidate failed, papers/discovery/README.md, session 36).
+void gap_from_baseline(const DiscoverResult& result, std::vector<DiscoverGap>* gap, std::string* rows) {
+  if (result.baseline.fit.empty()) return;
+  for (const FitEffectTest& t : fit_runs_error(result.baseline).tests)
+    gap->push_back({t.test, t.error_with, t.error_with, std::numeric_limits<double>::quiet_NaN()});
+  *rows = "the baseline's fit curves (no candidate was fitted; before = after)";
 }
 
 // The gap per test: from the refit's effect-fit records (before: the first record holding the

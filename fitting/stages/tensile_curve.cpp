@@ -216,6 +216,9 @@ class TensileCurveStage final : public FitStage {
     return distinct_best_first(context, score_starts(context, std::move(candidates)), curve_of(best).degree() + 1);
   }
 
+  // The stage's curve entries (its term's μ and α), what a start's refit and score free.
+  std::vector<std::string> curve_entries() const { return {stage_.term->curve + ".*"}; }
+
   MaterialParameters plain_start(const MaterialParameters& best) const {
     const Curve& c = curve_of(best);
     const double alpha_max = std::abs(*std::max_element(c.alpha.begin(), c.alpha.end(),
@@ -234,7 +237,7 @@ class TensileCurveStage final : public FitStage {
     if (!options_.uniform_starts) return trial;
     std::vector<std::shared_ptr<Predictor>> uniform;
     for (const RunData* d : context.runs_for(stage_.angle_deg)) uniform.push_back(context.uniform_strain_predictor(*d));
-    ParameterMap map(trial, {stage_.term->curve + ".*"});
+    ParameterMap map(trial, curve_entries());
     FitObjective objective(map, uniform);
     const OptimizerResult r =
         context.make_optimizer(context.config().uniform_strain_optimizer)->minimize(objective, map.initial_x());
@@ -255,7 +258,7 @@ class TensileCurveStage final : public FitStage {
     tbb::parallel_for(size_t{0}, candidates.size(), [&](size_t i) {
       const auto experiments = context.tensile_experiments(runs, options_.level, candidates[i]);
       const std::vector<std::shared_ptr<Predictor>> full(experiments.begin(), experiments.end());
-      ParameterMap map(candidates[i], {stage_.term->curve + ".*"});
+      ParameterMap map(candidates[i], curve_entries());
       FitObjective objective(map, full);
       objective.set_scale_groups(context.scale_groups(runs, full.size()));
       const double value = objective.evaluate(map.initial_x(), nullptr);
@@ -270,27 +273,28 @@ class TensileCurveStage final : public FitStage {
   std::vector<MaterialParameters> distinct_best_first(const FitContext& context,
                                                       const std::vector<std::pair<double, MaterialParameters>>& scored,
                                                       int degree) const {
-    std::vector<MaterialParameters> starts;
-    std::vector<double> scores;
+    std::vector<const std::pair<double, MaterialParameters>*> kept;
     std::string listed;
     size_t repeated = 0;
-    for (const auto& [value, p] : scored) {
-      if (!std::isfinite(value)) continue;
-      const double alpha = curve_of(p).alpha.back();
-      bool seen = false;
-      for (size_t k = 0; k < starts.size() && !seen; ++k)
-        seen = std::abs(curve_of(starts[k]).alpha.back() - alpha) <= kSameAlpha * std::abs(alpha) &&
-               std::abs(scores[k] - value) <= kSameScore * std::abs(value);
-      if (seen) {
+    const auto same = [&](const std::pair<double, MaterialParameters>& a, const std::pair<double, MaterialParameters>& b) {
+      const double alpha = curve_of(b.second).alpha.back();
+      return std::abs(curve_of(a.second).alpha.back() - alpha) <= kSameAlpha * std::abs(alpha) &&
+             std::abs(a.first - b.first) <= kSameScore * std::abs(b.first);
+    };
+    for (const auto& start : scored) {
+      if (!std::isfinite(start.first)) continue;
+      if (std::any_of(kept.begin(), kept.end(), [&](const auto* k) { return same(*k, start); })) {
         ++repeated;
         continue;
       }
-      starts.push_back(p);
-      scores.push_back(value);
-      listed += fmt::format("{}{:.4g} ({:.4g})", listed.empty() ? "" : ", ", alpha, value);
+      kept.push_back(&start);
+      listed += fmt::format("{}{:.4g} ({:.4g})", listed.empty() ? "" : ", ", curve_of(start.second).alpha.back(),
+                            start.first);
     }
     context.say(0, fmt::format("{}: degree {} starts, best first: alpha_new (score) {}{}", stage_.label, degree, listed,
                                repeated ? fmt::format("; {} repeated start(s) dropped", repeated) : ""));
+    std::vector<MaterialParameters> starts;
+    for (const auto* k : kept) starts.push_back(k->second);
     return starts;
   }
 
