@@ -125,6 +125,59 @@ namespace {
 // noise, and an AR(1) that close to a random walk would make the null as wide as any signal.
 constexpr double kMaxCorrelation = 0.95;
 
+// The profile's weight w is searched on a grid of this many steps over [0, 1].
+constexpr int kProfileSteps = 100;
+
+}  // namespace
+
+double noise_correlation(const Eigen::Ref<const Eigen::VectorXd>& run) {
+  const Eigen::Index size = run.size();
+  if (size < 3) return 0;
+  const double lagged = run.head(size - 1).squaredNorm();
+  const double raw = lagged > 0 ? run.tail(size - 1).dot(run.head(size - 1)) / lagged : 0.0;
+  return std::clamp(raw + (1 + 3 * raw) / static_cast<double>(size), 0.0, kMaxCorrelation);
+}
+
+Eigen::VectorXd draw_ar1(Eigen::Index rows, double phi, std::mt19937_64* engine) {
+  std::normal_distribution<double> normal;
+  Eigen::VectorXd e(rows);
+  if (rows == 0) return e;
+  const double innovation = std::sqrt(1 - phi * phi);
+  e[0] = normal(*engine);
+  for (Eigen::Index i = 1; i < rows; ++i) e[i] = phi * e[i - 1] + innovation * normal(*engine);
+  return e;
+}
+
+NoiseProfile fit_noise_profile(const Eigen::VectorXd& u, const Eigen::VectorXd& magnitude,
+                               const std::vector<Eigen::Index>& run_rows) {
+  if (magnitude.size() != u.size() || std::accumulate(run_rows.begin(), run_rows.end(), Eigen::Index{0}) != u.size() ||
+      u.size() == 0 || !(magnitude.minCoeff() > 0))
+    throw std::invalid_argument("fit_noise_profile: the readings' magnitudes or the runs' rows do not match the noise");
+  std::vector<double> all(magnitude.data(), magnitude.data() + magnitude.size());
+  std::nth_element(all.begin(), all.begin() + static_cast<std::ptrdiff_t>(all.size() / 2), all.end());
+  NoiseProfile best{0, all[all.size() / 2]};
+  double best_likelihood = -std::numeric_limits<double>::infinity();
+  for (int k = 0; k <= kProfileSteps; ++k) {
+    const NoiseProfile profile{static_cast<double>(k) / kProfileSteps, best.median};
+    double likelihood = 0;
+    Eigen::Index row = 0;
+    for (const Eigen::Index rows : run_rows) {
+      double squares = 0;
+      for (Eigen::Index i = row; i < row + rows; ++i) {
+        const double s = profile.at(magnitude[i]);
+        squares += std::pow(u[i] / s, 2);
+        likelihood -= std::log(s);
+      }
+      if (squares > 0) likelihood -= 0.5 * static_cast<double>(rows) * std::log(squares / static_cast<double>(rows));
+      row += rows;
+    }
+    if (likelihood > best_likelihood) best_likelihood = likelihood, best = profile;
+  }
+  return best;
+}
+
+namespace {
+
 // What T needs of the baseline and the candidate, computed once for the data and every
 // replicate of the calibration.
 struct ScoreBasis {
@@ -263,53 +316,20 @@ struct RunNoise {
 };
 
 RunNoise fit_run_noise(const Eigen::VectorXd& u, Eigen::Index begin, Eigen::Index size) {
-  RunNoise run{begin, size, 0, 0};
   const auto rows = u.segment(begin, size);
-  run.sd = std::sqrt(rows.squaredNorm() / static_cast<double>(size));
-  if (size < 3) return run;
-  const double lagged = rows.head(size - 1).squaredNorm();
-  const double raw = lagged > 0 ? rows.tail(size - 1).dot(rows.head(size - 1)) / lagged : 0.0;
-  run.phi = std::clamp(raw + (1 + 3 * raw) / static_cast<double>(size), 0.0, kMaxCorrelation);
-  return run;
+  return {begin, size, noise_correlation(rows), std::sqrt(rows.squaredNorm() / static_cast<double>(size))};
 }
 
-// The instrument's noise profile (ScoreCalibration::measured): s_i = (1 − w) + w M/|y_i|, M
-// the median |y| of the instrument's rows (w = 0: noise relative to the reading, w = 1:
-// absolute), w on a grid of kProfileSteps by the Gaussian likelihood of `u` with each run's own
-// level profiled out, −Σ_r (n_r/2) log mean_r (u/s)² − Σ log s (its AR(1) ignored: the
-// profile is a property of the readings, the correlation of their order).
-constexpr int kProfileSteps = 100;
-
-Eigen::VectorXd instrument_profile(const Eigen::VectorXd& u, const Eigen::VectorXd& magnitude,
-                                   const std::vector<Eigen::Index>& run_rows, const std::vector<Eigen::Index>& run_begin) {
-  std::vector<double> all;
-  for (size_t r = 0; r < run_rows.size(); ++r)
-    for (Eigen::Index i = 0; i < run_rows[r]; ++i) all.push_back(magnitude[run_begin[r] + i]);
-  std::nth_element(all.begin(), all.begin() + static_cast<std::ptrdiff_t>(all.size() / 2), all.end());
-  const double median = all[all.size() / 2];
-  const auto profile_at = [&](double w, Eigen::Index row) { return (1 - w) + w * median / magnitude[row]; };
-  double best_w = 0, best = -std::numeric_limits<double>::infinity();
-  for (int k = 0; k <= kProfileSteps; ++k) {
-    const double w = static_cast<double>(k) / kProfileSteps;
-    double likelihood = 0;
-    for (size_t r = 0; r < run_rows.size(); ++r) {
-      double squares = 0;
-      for (Eigen::Index i = 0; i < run_rows[r]; ++i) {
-        const double s = profile_at(w, run_begin[r] + i);
-        squares += std::pow(u[run_begin[r] + i] / s, 2);
-        likelihood -= std::log(s);
-      }
-      if (squares > 0) likelihood -= 0.5 * static_cast<double>(run_rows[r]) * std::log(squares / static_cast<double>(run_rows[r]));
-    }
-    if (likelihood > best) best = likelihood, best_w = w;
-  }
-  Eigen::VectorXd s = Eigen::VectorXd::Ones(u.size());
-  for (size_t r = 0; r < run_rows.size(); ++r)
-    for (Eigen::Index i = 0; i < run_rows[r]; ++i) s[run_begin[r] + i] = profile_at(best_w, run_begin[r] + i);
-  return s;
+// The rows of one instrument's runs (`run_begin`, `run_rows`) gathered in order.
+Eigen::VectorXd gathered(const Eigen::VectorXd& v, const std::vector<Eigen::Index>& run_rows,
+                         const std::vector<Eigen::Index>& run_begin) {
+  Eigen::VectorXd out(std::accumulate(run_rows.begin(), run_rows.end(), Eigen::Index{0}));
+  Eigen::Index row = 0;
+  for (size_t r = 0; r < run_rows.size(); row += run_rows[r], ++r) out.segment(row, run_rows[r]) = v.segment(run_begin[r], run_rows[r]);
+  return out;
 }
 
-// Each row's noise profile (ones without magnitudes): instrument_profile per instrument.
+// Each row's noise profile (ones without magnitudes): fit_noise_profile per instrument.
 Eigen::VectorXd noise_profile(const Eigen::VectorXd& u, const std::vector<Eigen::Index>& run_rows,
                               const ScoreCalibration& calibration) {
   if (calibration.measured.size() == 0) return Eigen::VectorXd::Ones(u.size());
@@ -326,22 +346,17 @@ Eigen::VectorXd noise_profile(const Eigen::VectorXd& u, const std::vector<Eigen:
   }
   Eigen::VectorXd s = Eigen::VectorXd::Ones(u.size());
   for (const auto& [instrument, runs] : by_instrument) {
-    const Eigen::VectorXd one = instrument_profile(u, calibration.measured, runs.first, runs.second);
+    const NoiseProfile profile = fit_noise_profile(gathered(u, runs.first, runs.second),
+                                                   gathered(calibration.measured, runs.first, runs.second), runs.first);
     for (size_t r = 0; r < runs.first.size(); ++r)
-      s.segment(runs.second[r], runs.first[r]) = one.segment(runs.second[r], runs.first[r]);
+      for (Eigen::Index i = runs.second[r]; i < runs.second[r] + runs.first[r]; ++i) s[i] = profile.at(calibration.measured[i]);
   }
   return s;
 }
 
 Eigen::VectorXd draw_noise(const std::vector<RunNoise>& runs, Eigen::Index m, std::mt19937_64* engine) {
-  std::normal_distribution<double> normal;
   Eigen::VectorXd e(m);
-  for (const RunNoise& run : runs) {
-    const double innovation = run.sd * std::sqrt(1 - run.phi * run.phi);
-    double previous = run.sd * normal(*engine);
-    e[run.begin] = previous;
-    for (Eigen::Index i = 1; i < run.size; ++i) e[run.begin + i] = previous = run.phi * previous + innovation * normal(*engine);
-  }
+  for (const RunNoise& run : runs) e.segment(run.begin, run.size) = run.sd * draw_ar1(run.size, run.phi, engine);
   return e;
 }
 

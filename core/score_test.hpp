@@ -43,6 +43,7 @@
 // one-sided (`sides`, below).
 #include <Eigen/Core>
 #include <cstdint>
+#include <random>
 #include <vector>
 
 #include "core/fit_objective.hpp"
@@ -132,6 +133,25 @@ ScoreTest score_test(const Eigen::VectorXd& r, const Eigen::MatrixXd& baseline, 
 /// bootstrap: one observation per direction has no correlation to model, replicates 0).
 ScoreTest score_test_with_known_noise(const Eigen::VectorXd& r, const Eigen::MatrixXd& baseline,
                                      const Eigen::MatrixXd& candidate, int noise_dof);
+/// The noise law of one instrument's readings relative to each reading (ScoreCalibration::
+/// measured): sd_i / |y_i| ∝ (1 − w) + w M/|y_i|, M the median |y| of the rows it was fitted to
+/// (w = 0: noise relative to the reading, w = 1: absolute) — a load cell's a + b|y|.
+struct NoiseProfile {
+  double absolute_weight = 0;  ///< w
+  double median = 1;           ///< M, in the readings' unit
+  double at(double magnitude) const { return (1 - absolute_weight) + absolute_weight * median / magnitude; }
+};
+/// w on a grid of 101 by the Gaussian likelihood of the relative noise `u` with each run's own
+/// level profiled out, −Σ_r (n_r/2) log mean_r (u/s)² − Σ log s (an AR(1) ignored there: the
+/// profile belongs to the readings, the correlation to their order). `magnitude` |y_i| > 0 per
+/// row; `run_rows` each run's number of rows, in order. std::invalid_argument on a mismatch.
+NoiseProfile fit_noise_profile(const Eigen::VectorXd& u, const Eigen::VectorXd& magnitude,
+                               const std::vector<Eigen::Index>& run_rows);
+/// A run's lag-one noise correlation: Σ u_i u_{i−1} / Σ u_{i−1}², Kendall-corrected
+/// (E φ̂ ≈ φ − (1 + 3φ)/n), clipped to [0, 0.95]; 0 with fewer than three rows.
+double noise_correlation(const Eigen::Ref<const Eigen::VectorXd>& run);
+/// `rows` values of a stationary AR(1) with lag-one correlation `phi` and variance 1.
+Eigen::VectorXd draw_ar1(Eigen::Index rows, double phi, std::mt19937_64* engine);
 /// The upper tail P(χ²(dof) > t) (regularised upper incomplete gamma Q(dof/2, t/2)).
 double chi_squared_upper_tail(double t, int dof);
 /// The upper tail P(F(d1, d2) > f) (regularised incomplete beta).

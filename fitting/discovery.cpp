@@ -198,19 +198,41 @@ void keep_larger_ratio(const std::string& test, double error, double floor, doub
   if (std::isfinite(floor) && error / floor > *largest) *largest = error / floor, *where = test;
 }
 
+// A fit's own curves of `test` (report.fit) as the readings a misfit is judged on.
+std::vector<RunReadings> fit_curve_readings(const FitReport& report, const std::string& test) {
+  std::vector<RunReadings> runs;
+  for (const FitCurve& c : report.fit)
+    if (c.label == test) runs.push_back({c.measured_N, c.simulated_N});
+  return runs;
+}
+
+// Each fit test's noise floor on the baseline's own fit curves (noise_floor_test, no resolution
+// error): the unexplained rule's floor before the gap's rows exist.
+std::map<std::string, double> baseline_noise_floors(const DiscoverWork& work, const FitReport& baseline) {
+  std::map<std::string, double> out;
+  const std::optional<RepeatNoise> noise = repeat_noise(work.dataset);
+  if (!noise) return out;
+  for (const FitCurve& c : baseline.fit)
+    if (!out.count(c.label)) out[c.label] = noise_floor_test(*noise, fit_curve_readings(baseline, c.label), 0.0).floor;
+  return out;
+}
+
 // The misfit the score-tested candidates see (their tests' errors without them), as a multiple of
-// each test's floor: the smaller of the effects' floors (floors_by_test) and the repeats' scatter.
-// None of these is larger than the floor real_misfit judges a candidate against, nor than the one
-// unexplained_misfit calls a misfit unexplained against (that adds the resolution error to the
-// repeats' scatter). NaN when no score-tested candidate was fitted.
+// each test's floor: the smallest of the effects' floors (floors_by_test), the repeats' scatter
+// and the repeats' noise floor on the baseline's curves. None of these is larger than the floor
+// real_misfit judges a candidate against, nor than the one unexplained_misfit calls a misfit
+// unexplained against (which adds the resolution error; its noise floor is drawn on the gap's
+// rows, the same law on other rows of the same runs). NaN when no score-tested candidate was fitted.
 double largest_misfit(const DiscoverWork& work, const DiscoverResult& result, std::string* where) {
-  const std::map<std::string, double> effects = floors_by_test(result.candidates), repeats = repeat_floors(work.dataset);
+  const std::map<std::string, double> effects = floors_by_test(result.candidates), repeats = repeat_floors(work.dataset),
+                                      noise = baseline_noise_floors(work, result.baseline);
   double largest = std::numeric_limits<double>::quiet_NaN();
   for (const DiscoverCandidate& c : result.candidates) {
     if (!c.effect || !std::isfinite(c.effect->score)) continue;
     largest = std::isfinite(largest) ? largest : 0.0;
     for (const FitEffectTest& t : c.effect->tests)
-      keep_larger_ratio(t.test, t.error_without, std::min(floor_of(effects, t.test), floor_of(repeats, t.test)), &largest,
+      keep_larger_ratio(t.test, t.error_without,
+                        std::min({floor_of(effects, t.test), floor_of(repeats, t.test), floor_of(noise, t.test)}), &largest,
                         where);
   }
   return largest;
@@ -518,6 +540,34 @@ void add_resolution_errors(const DiscoverWork& work, const FitReport& baseline, 
   work.timed("resolution errors", t);
 }
 
+// The readings `unexplained` judges each force test on: the gap's rows (result.curves, the
+// baseline's prediction as `without`), else the baseline's own fit curves (gap_from_baseline).
+std::vector<RunReadings> gap_readings(const DiscoverResult& result, const std::string& test) {
+  std::vector<RunReadings> runs;
+  for (const FitEffectCurve& c : result.curves)
+    if (c.test == test) runs.push_back({c.measured_N, c.without_N});
+  return runs.empty() ? fit_curve_readings(result.baseline, test) : runs;
+}
+
+// Each force test's noise floor and the p-value of its baseline error against it
+// (noise_floor_test), from the load cell's noise the repeats show (repeat_noise). With the
+// resolution error as the draws' offset: measure it first (add_resolution_errors).
+void add_noise_floors(const DiscoverWork& work, DiscoverResult* result) {
+  const auto t = Clock::now();
+  result->noise = repeat_noise(work.dataset);
+  if (!result->noise) return;
+  for (DiscoverGap& g : result->gap) {
+    const bool force_test = std::any_of(work.dataset.tensile.begin(), work.dataset.tensile.end(),
+                                        [&](const TensileTest& x) { return x.label == g.test && x.role == TestRole::Fit; });
+    if (!force_test) continue;
+    const NoiseFloorTest test = noise_floor_test(*result->noise, gap_readings(*result, g.test),
+                                                 std::isfinite(g.resolution_error) ? g.resolution_error : 0.0);
+    g.noise_floor = test.floor;
+    g.misfit_p = test.p_value;
+  }
+  work.timed("noise floors", t);
+}
+
 std::vector<DiscoverFold> folds_for(const DiscoverWork& work, const std::string& effect, std::string* held, std::string* note) {
   const auto e = work.registry.create<EffectFactories>(registry_category::kEffect, neutral_effect(effect, work.registry));
   return discover_folds(work.dataset, e->held_out(), held, note);
@@ -800,10 +850,11 @@ DiscoverResult run_discover(const Dataset& dataset, const Options& config, const
   const std::map<std::string, double> repeats = repeat_floors(dataset);
   for (DiscoverGap& g : result.gap)
     if (const auto found = repeats.find(g.test); found != repeats.end()) g.repeat_floor = found->second;
-  if (result.verdict == kNone) add_resolution_errors(work, result.baseline, &result.gap);
   if (result.verdict == kNone) {
+    add_resolution_errors(work, result.baseline, &result.gap);
+    add_noise_floors(work, &result);
     std::string note;
-    const std::string misfit = unexplained_misfit(result, options.unexplained_ratio, &note);
+    const std::string misfit = unexplained_misfit(result, options.unexplained_ratio, options.alpha, &note);
     if (!misfit.empty()) result.verdict = misfit;
     if (!note.empty()) result.notes.push_back(note);
   }

@@ -18,6 +18,7 @@
 //      `min_excess_shrink`; several passing are refitted jointly, and one whose score is no
 //      longer significant after the others is `tied` with the one that explained it; named
 //      effects are refitted from the baseline at its finest level.
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -25,6 +26,7 @@
 #include "core/config.hpp"
 #include "core/dataset.hpp"
 #include "core/registry.hpp"
+#include "core/score_test.hpp"
 #include "effects/effect.hpp"
 #include "fitting/fit_protocol.hpp"
 
@@ -117,6 +119,21 @@ struct DiscoverCandidate {
   DiscoverHeldOut held_out;          ///< for candidates that passed on the fitted data
 };
 
+/// The load cell's noise as every fit test's repeats show it (discovery_noise.cpp;
+/// docs/discovery.md §2, "The noise floor from the repeats"): each test's runs on their shared
+/// loading rows (repeat_branches), each at its weighted least-squares relative scale onto their
+/// mean, the relative deviations u = (s f − m)/m; their profile (core/score_test.hpp,
+/// NoiseProfile: sd a + b|y|; the scales reweighted by it, three sweeps), level (Σ (u/profile)²
+/// over the degrees of freedom left, Σ (rows − 1)(runs − 1)) and mean lag-one correlation,
+/// pooled over the tests. The
+/// deviations hold whatever makes specimens differ beyond a scale (the noise, a cut's shape), not
+/// what they share.
+struct RepeatNoise {
+  NoiseProfile profile;
+  double level = 0;        ///< the relative sd where the profile is 1: sd(y) = level · profile.at(|y|) · |y|
+  double correlation = 0;  ///< the runs' mean lag-one correlation (noise_correlation)
+  int runs = 0, rows = 0;  ///< what it was fitted to
+};
 /// Per test: the error of the paper's model, of the model with the named effects, and the
 /// noise floor (the mean |noise| the calibration fitted; docs/discovery.md).
 struct DiscoverGap {
@@ -127,6 +144,11 @@ struct DiscoverGap {
   /// The baseline's own resolution error on the test's strip: its forces at the refit's level
   /// against one level finer (NaN when not measured).
   double resolution_error = std::numeric_limits<double>::quiet_NaN();
+  /// What the repeats' pooled noise makes a perfect model miss the test's runs by, and the
+  /// p-value of `before` against it (noise_floor_test; NaN where not measured: no repeats, not a
+  /// force test, or something was named).
+  double noise_floor = std::numeric_limits<double>::quiet_NaN();
+  double misfit_p = std::numeric_limits<double>::quiet_NaN();
 };
 
 struct DiscoverResult {
@@ -138,6 +160,8 @@ struct DiscoverResult {
   /// record's; before again when nothing is named). For the residual plots.
   std::vector<FitEffectCurve> curves;
   std::vector<DiscoverCandidate> candidates;
+  /// The load cell's noise from the repeats (repeat_noise), when nothing was named and it was fitted.
+  std::optional<RepeatNoise> noise;
   FitReport baseline;
   std::optional<FitReport> refit;  ///< the fit with the named (or tied) effects
   std::string screening_resolution;  ///< where the candidates and held-out folds were fitted
@@ -177,13 +201,38 @@ std::vector<DiscoverCandidate> audit_candidates(const Dataset& dataset, const Op
 /// one run, or fewer than kRepeatFloorRows shared rows, has none.
 std::map<std::string, double> repeat_floors(const Dataset& dataset);
 
+/// nullopt when fewer than two runs of the fit tests share rows with another run.
+std::optional<RepeatNoise> repeat_noise(const Dataset& dataset);
+
+/// One run's readings on the rows a misfit is judged on: measured and the model's prediction
+/// (at the run's specimen scale).
+struct RunReadings {
+  std::vector<double> measured, predicted;
+};
+/// A test's error against what the noise alone makes of it.
+struct NoiseFloorTest {
+  double observed = std::numeric_limits<double>::quiet_NaN();  ///< the runs' mean average relative error
+  double floor = std::numeric_limits<double>::quiet_NaN();     ///< its mean over the draws: a perfect model's error
+  double p_value = std::numeric_limits<double>::quiet_NaN();   ///< (1 + #{E* + offset ≥ observed}) / (B + 1)
+};
+/// Draws B (calibration.replicates, its seed) replicates of the test's runs as the prediction
+/// plus the repeats' noise (level, profile, AR(1)), refits each run's scale (least squares in
+/// relative residuals, as the fit), and measures each replicate's error E* as the observed one
+/// is. `offset` (the resolution error) is added to every E*: a mesh's own error is not a missing
+/// mechanism. NaN fields when a reading is 0 or there are no runs.
+NoiseFloorTest noise_floor_test(const RepeatNoise& noise, const std::vector<RunReadings>& runs, double offset,
+                                const ScoreCalibration& calibration = {});
+
 /// With nothing named: "unexplained at <test, range>" for the test whose baseline error is
-/// furthest above `ratio` times its floor — the smaller of the effects' floor and the repeats'
-/// own scatter plus the baseline's resolution error (a misfit no effect explains stays in the
-/// effects' residual floors; the mesh's own error is not a missing mechanism) — or "" when none is. A test that the curve-degree
-/// candidate's richer curves bring within `ratio` times its floor is the curves' shape, not
-/// unexplained: it is said in `note` instead (docs/discovery.md §1).
-std::string unexplained_misfit(const DiscoverResult& result, double ratio, std::string* note);
+/// furthest above `ratio` times its floor — the smaller of the effects' floor and the
+/// model-free one (the repeats' pooled noise floor, noise_floor_test, where measured, else the
+/// test's repeat scatter) plus the baseline's resolution error (a misfit no effect explains stays
+/// in the effects' residual floors; the mesh's own error is not a missing mechanism) — and, where
+/// the test has a misfit_p, beyond the noise at α / (tests with one); "" when none is. A test
+/// that the curve-degree candidate's richer curves bring within `ratio` times its floor is the
+/// curves' shape, not unexplained, and one within the noise's reach is not a misfit: both are
+/// said in `note` instead (docs/discovery.md §1, §2).
+std::string unexplained_misfit(const DiscoverResult& result, double ratio, double alpha, std::string* note);
 
 /// Step 4 on candidates whose `effect` is set: statuses, reasons, `named` and the verdict's
 /// kind (the joint refit's records, when several pass, come in `joint`; with two passing, the

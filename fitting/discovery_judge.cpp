@@ -750,11 +750,20 @@ std::string misfit_range(const FitReport& baseline, const std::string& test, dou
 }
 
 // The floor a misfit is called unexplained against: the smaller of the effects' residual floor
-// and the repeats' own scatter (either may be missing).
+// and the model-free one — what the repeats' pooled noise makes a perfect model miss by where it
+// was measured, else the test's own repeat scatter — plus the resolution error (any may be
+// missing).
 double misfit_floor(const DiscoverGap& g) {
-  if (!std::isfinite(g.repeat_floor)) return g.floor;
-  const double model_free = g.repeat_floor + (std::isfinite(g.resolution_error) ? g.resolution_error : 0.0);
+  const double noise = std::isfinite(g.noise_floor) ? g.noise_floor : g.repeat_floor;
+  if (!std::isfinite(noise)) return g.floor;
+  const double model_free = noise + (std::isfinite(g.resolution_error) ? g.resolution_error : 0.0);
   return std::isfinite(g.floor) ? std::min(g.floor, model_free) : model_free;
+}
+
+// Whether a test's misfit is beyond what the repeats' noise makes by chance: its p-value below
+// α over the tests that have one (Bonferroni), or no p-value to say otherwise.
+bool beyond_the_noise(const DiscoverGap& g, double threshold) {
+  return !std::isfinite(g.misfit_p) || g.misfit_p < threshold;
 }
 
 // curve-degree's error on `test`'s rows (NaN when it was not fitted or has no such test).
@@ -774,7 +783,10 @@ std::map<std::string, double> repeat_floors(const Dataset& dataset) {
   return out;
 }
 
-std::string unexplained_misfit(const DiscoverResult& result, double ratio, std::string* note) {
+std::string unexplained_misfit(const DiscoverResult& result, double ratio, double alpha, std::string* note) {
+  const auto tested = std::count_if(result.gap.begin(), result.gap.end(),
+                                    [](const DiscoverGap& g) { return std::isfinite(g.misfit_p); });
+  const double threshold = alpha / static_cast<double>(std::max<std::ptrdiff_t>(tested, 1));
   const DiscoverGap* worst = nullptr;
   for (const DiscoverGap& g : result.gap) {
     const double floor = misfit_floor(g);
@@ -782,6 +794,13 @@ std::string unexplained_misfit(const DiscoverResult& result, double ratio, std::
     const double richer = richer_curve_error(result, g.test);
     const Misfit m = misfit_of(g.before, floor, richer, ratio);
     if (m == Misfit::None) continue;
+    if (!beyond_the_noise(g, threshold)) {
+      if (note)
+        *note += fmt::format("{}{} is {:.1f}× its floor, but the repeats' noise makes as large an error with p {:.2g} "
+                             "(α/n = {:.2g}): not a misfit",
+                             note->empty() ? "" : "; ", g.test, g.before / floor, g.misfit_p, threshold);
+      continue;
+    }
     if (m == Misfit::CurvesShape) {
       if (note)
         *note += fmt::format("{}{} is {:.1f}× its floor with the protocol's curves and {:.1f}× with the curves raised "

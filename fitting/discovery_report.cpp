@@ -92,11 +92,20 @@ json step_times_json(const std::vector<std::pair<std::string, double>>& steps) {
   return j;
 }
 
+// The load cell's noise the repeats show (null when not fitted): sd(y) = level · ((1 − w)|y| + w M).
+json noise_json(const std::optional<RepeatNoise>& noise) {
+  if (!noise) return nullptr;
+  return {{"level", noise->level}, {"absolute_weight", noise->profile.absolute_weight},
+          {"median_N", noise->profile.median}, {"correlation", noise->correlation}, {"runs", noise->runs},
+          {"rows", noise->rows}};
+}
+
 json discover_json(const DiscoverResult& r, const Options& config) {
   json gap = json::object();
   for (const DiscoverGap& g : r.gap)
     gap[g.test] = {{"before", g.before}, {"after", g.after}, {"floor", number(g.floor)},
-                   {"repeat_floor", number(g.repeat_floor)}, {"resolution_error", number(g.resolution_error)}};
+                   {"repeat_floor", number(g.repeat_floor)}, {"resolution_error", number(g.resolution_error)},
+                   {"noise_floor", number(g.noise_floor)}, {"misfit_p", number(g.misfit_p)}};
   json candidates = json::array();
   for (const DiscoverCandidate& c : r.candidates) candidates.push_back(candidate_json(c));
   return {{"dataset", r.baseline.dataset},
@@ -106,6 +115,7 @@ json discover_json(const DiscoverResult& r, const Options& config) {
           {"gap_rows", r.gap_rows},
           {"curves", effect_curves_json(r.curves)},
           {"candidates", candidates},
+          {"repeat_noise", noise_json(r.noise)},
           {"alpha", config.get_section(kSection).get_double("alpha")},
           {"baseline_resolution", r.baseline.finest_resolution},
           {"screening_resolution", r.screening_resolution},
@@ -133,11 +143,19 @@ std::string discover_markdown(const DiscoverResult& r) {
      << ": the paper's model (before), with the named effects (after), and the noise floor (the mean |residual| "
         "neither the baseline nor an effect explains, at its neutral values or fitted; docs/discovery.md §2) beside the "
         "repeats' own scatter about their mean curve (no model) and, when nothing is named, the baseline's resolution "
-        "error (its strip one level finer).\n\n| test | before | after | floor | repeats' scatter | resolution error |\n"
-        "|---|---|---|---|---|---|\n";
+        "error (its strip one level finer), the error the repeats' pooled noise makes a perfect model miss by (noise "
+        "floor) and the p-value of `before` against it (§2, \"The noise floor from the repeats\").\n\n"
+        "| test | before | after | floor | repeats' scatter | resolution error | noise floor | p (misfit) |\n"
+        "|---|---|---|---|---|---|---|---|\n";
   for (const DiscoverGap& g : r.gap)
     md << "| " << g.test << " | " << cell(g.before) << " | " << cell(g.after) << " | " << cell(g.floor) << " | "
-       << cell(g.repeat_floor) << " | " << cell(g.resolution_error) << " |\n";
+       << cell(g.repeat_floor) << " | " << cell(g.resolution_error) << " | " << cell(g.noise_floor) << " | "
+       << (std::isfinite(g.misfit_p) ? fmt::format("{:.2g}", g.misfit_p) : "—") << " |\n";
+  if (r.noise)
+    md << fmt::format("\nThe repeats' noise (load cell, {} runs, {} rows): sd = {:.3g} % × ((1 − {:.2f}) |F| + {:.2f} × "
+                      "{:.3g} N), lag-one correlation {:.2f}.\n",
+                      r.noise->runs, r.noise->rows, 100 * r.noise->level, r.noise->profile.absolute_weight,
+                      r.noise->profile.absolute_weight, r.noise->profile.median, r.noise->correlation);
   md << "\n## Candidates\n\n| effect | status | score T (d) | p (calibrated) | p (iid) | error without → with | why "
         "|\n|---|---|---|---|---|---|---|\n";
   for (const DiscoverCandidate& c : r.candidates) {

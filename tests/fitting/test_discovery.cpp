@@ -4,6 +4,7 @@
 // without a score test, and two effects that explain the same misfit in the joint refit.
 #include <gtest/gtest.h>
 
+#include <functional>
 #include <limits>
 #include <optional>
 #include <random>
@@ -297,16 +298,16 @@ TEST(DiscoverJudge, AMisfitTheRicherCurveRemovesIsTheCurvesShapeNotUnexplained) 
   curve.status = "rejected";
   std::string note;
   // Without the candidate: warp is 2.4× its floor, unexplained.
-  EXPECT_EQ(unexplained_misfit(r, 2.0, &note).rfind("unexplained at warp", 0), 0u);
+  EXPECT_EQ(unexplained_misfit(r, 2.0, 0.05, &note).rfind("unexplained at warp", 0), 0u);
   EXPECT_EQ(note, "");
   // With it: warp's richer-curve error is 1.4× the floor: the curves' shape, said in a note.
   r.candidates = {curve};
-  EXPECT_EQ(unexplained_misfit(r, 2.0, &note), "");
+  EXPECT_EQ(unexplained_misfit(r, 2.0, 0.05, &note), "");
   EXPECT_NE(note.find("warp is 2.4× its floor"), std::string::npos) << note;
   // A misfit the richer curve leaves above the ratio stays unexplained.
   r.candidates[0].effect->tests[0].error_with = 0.0085;
   note.clear();
-  EXPECT_EQ(unexplained_misfit(r, 2.0, &note).rfind("unexplained at warp", 0), 0u);
+  EXPECT_EQ(unexplained_misfit(r, 2.0, 0.05, &note).rfind("unexplained at warp", 0), 0u);
 }
 
 // The yarn-damage dataset of papers/discovery (seed 1, 2026-12-05): a load drop none of the
@@ -316,10 +317,10 @@ TEST(DiscoverJudge, AMisfitTheRicherCurveRemovesIsTheCurvesShapeNotUnexplained) 
 TEST(DiscoverJudge, AMisfitThatTheEffectsFloorsHoldIsUnexplainedAgainstTheRepeatsScatter) {
   DiscoverResult r;
   r.gap = {{"warp", 0.0545, 0.0545, 0.0494}, {"weft", 0.039, 0.039, 0.042}};
-  EXPECT_EQ(unexplained_misfit(r, 2.0, nullptr), "");
+  EXPECT_EQ(unexplained_misfit(r, 2.0, 0.05, nullptr), "");
   r.gap[0].repeat_floor = 0.006;
   r.gap[1].repeat_floor = 0.005;
-  const std::string verdict = unexplained_misfit(r, 2.0, nullptr);
+  const std::string verdict = unexplained_misfit(r, 2.0, 0.05, nullptr);
   EXPECT_EQ(verdict.rfind("unexplained at warp", 0), 0u) << verdict;  // 9.1× against weft's 7.8×
 }
 
@@ -360,7 +361,7 @@ TEST(DiscoverJudge, WithNoCandidateFittedTheGapIsTheBaselinesFitCurves) {
   r.gap = gap;
   r.gap[0].repeat_floor = 0.005;  // warp 6.7× its repeats' scatter
   r.gap[1].repeat_floor = 0.008;  // weft 1.25×
-  EXPECT_EQ(unexplained_misfit(r, 2.0, nullptr).rfind("unexplained at warp", 0), 0u);
+  EXPECT_EQ(unexplained_misfit(r, 2.0, 0.05, nullptr).rfind("unexplained at warp", 0), 0u);
 }
 
 // Three specimens of one test: a curve times each specimen's scale, with relative noise of sd
@@ -402,6 +403,122 @@ TEST(DiscoverRepeatFloor, IsTheRepeatsScatterAboutTheirMeanCurveWithoutAModel) {
   ASSERT_TRUE(b.has_value());
   for (size_t r = 1; r < scales.size(); ++r)
     EXPECT_NEAR(b->scales[0] / b->scales[r], scales[r] / scales[0], 0.002) << r;
+}
+
+// ---- the noise floor from the repeats (docs/discovery.md §2) --------------------------------
+
+// A load cell with sd a + b|F| (the generator's a = 0.05 N, b = 0.5 %; papers/hidden_effects).
+constexpr double kAbsoluteNoiseN = 0.05, kRelativeNoise = 0.005;
+
+// Runs of `curve` at 1 … 12 mm, each at its specimen scale, with the load cell's noise.
+TensileTest noisy_test(const std::string& label, const std::function<double(double)>& curve,
+                       const std::vector<double>& scales, std::mt19937_64* engine) {
+  std::normal_distribution<double> normal;
+  TensileTest t;
+  t.label = label;
+  for (const double scale : scales) {
+    TensileRun run;
+    for (int mm = 1; mm <= 12; ++mm) {
+      const double f = scale * curve(mm);
+      run.extension_mm.push_back(mm);
+      run.force_N.push_back(f + (kAbsoluteNoiseN + kRelativeNoise * f) * normal(*engine));
+    }
+    run.peak_index = run.size() - 1;
+    t.runs.push_back(run);
+  }
+  return t;
+}
+
+// A stiffening warp/weft curve to ≈ 2000 N and a soft bias strip of 0.4–19 N.
+double stiff_curve(double mm) { return 4 * mm + 0.02 * std::exp(0.95 * mm); }
+double soft_curve(double mm) { return 0.4 * mm + 0.08 * mm * mm; }
+
+// Four tests of three specimens each: the pooled law recovers the load cell's a and b, which no
+// single test's twelve rows could (the soft strip holds a, the stiff ones b).
+TEST(DiscoverRepeatNoise, RecoversTheLoadCellsLawFromTheRepeatsOfEveryTest) {
+  std::mt19937_64 engine(11);
+  Dataset d;
+  d.tensile = {noisy_test("warp", stiff_curve, {1.1, 0.8, 1.0}, &engine),
+               noisy_test("weft", [](double mm) { return 0.7 * stiff_curve(mm); }, {0.9, 1.2, 1.05}, &engine),
+               noisy_test("bias", soft_curve, {1.0, 0.85, 1.15}, &engine),
+               noisy_test("bias-slow", soft_curve, {0.95, 1.1, 0.9}, &engine)};
+  const std::optional<RepeatNoise> noise = repeat_noise(d);
+  ASSERT_TRUE(noise.has_value());
+  const double b = noise->level * (1 - noise->profile.absolute_weight);
+  const double a = noise->level * noise->profile.absolute_weight * noise->profile.median;
+  std::printf("[measured] a %.4f N (0.05), b %.4f %% (0.5), correlation %.2f, %d runs, %d rows\n", a, 100 * b,
+              noise->correlation, noise->runs, noise->rows);
+  EXPECT_EQ(noise->runs, 12);
+  EXPECT_NEAR(b, kRelativeNoise, 0.3 * kRelativeNoise);  // 64 degrees of freedom: ≈ 10 % sd each
+  EXPECT_NEAR(a, kAbsoluteNoiseN, 0.3 * kAbsoluteNoiseN);
+  EXPECT_LT(noise->correlation, 0.3);  // iid noise
+  // One specimen per test: no repeats, no law.
+  for (TensileTest& t : d.tensile) t.runs.resize(1);
+  EXPECT_FALSE(repeat_noise(d).has_value());
+}
+
+// The law above, on two specimens of the stiff curve: a model that is the truth is within the
+// noise at the test's level (5 % of null draws below p 0.05), and a 3 % load drop past 8 mm,
+// three times its noise floor, is not.
+TEST(DiscoverRepeatNoise, APerfectModelIsWithinTheNoiseAndALoadDropIsNot) {
+  RepeatNoise noise;
+  noise.profile = {0.0909, 100.0};  // a/(a + b M) with M 100 N: sd = level ((1 − w)|F| + w M)
+  noise.level = kRelativeNoise / (1 - noise.profile.absolute_weight);
+  std::mt19937_64 engine(3);
+  std::normal_distribution<double> normal;
+  const auto readings = [&](double drop) {
+    std::vector<RunReadings> runs(2);
+    for (RunReadings& run : runs)
+      for (int mm = 1; mm <= 12; ++mm) {
+        const double f = stiff_curve(mm);
+        run.predicted.push_back(f);
+        run.measured.push_back(f * (mm > 8 ? 1 - drop : 1) + (kAbsoluteNoiseN + kRelativeNoise * f) * normal(engine));
+      }
+    return runs;
+  };
+  ScoreCalibration draws;
+  draws.replicates = 199;  // 300 data sets below; the resolution of p, 0.005, is enough at 0.05
+  constexpr int kDataSets = 300;
+  int rejected = 0;
+  for (int k = 0; k < kDataSets; ++k) rejected += noise_floor_test(noise, readings(0.0), 0.0, draws).p_value < 0.05;
+  std::printf("[measured] a perfect model below p 0.05 in %d of %d null data sets\n", rejected, kDataSets);
+  EXPECT_GE(rejected, 5);  // 15 expected; binomial sd 3.8
+  EXPECT_LE(rejected, 28);
+  const NoiseFloorTest drop = noise_floor_test(noise, readings(0.03), 0.0);
+  std::printf("[measured] load drop: error %.3f %% against a noise floor of %.3f %%, p %.2g\n", 100 * drop.observed,
+              100 * drop.floor, drop.p_value);
+  EXPECT_DOUBLE_EQ(drop.p_value, 1.0 / 2000);
+  EXPECT_GT(drop.observed, 2 * drop.floor);
+  // The resolution error is added to every draw: an error the mesh alone makes is no misfit.
+  EXPECT_GT(noise_floor_test(noise, readings(0.03), drop.observed, draws).p_value, 0.5);
+}
+
+// The yarn-damage null twin's lesson (papers/discovery, session 37): with two specimens, one
+// test's repeat scatter put the truth at up to 4× it; the pooled noise floor replaces it where
+// measured, and a misfit needs a p-value below α over the tests that have one.
+TEST(DiscoverJudge, AMisfitWithinTheRepeatsNoiseIsNotUnexplained) {
+  DiscoverResult r;
+  r.gap = {{"warp", 0.0024, 0.0024, 0.0038}, {"weft", 0.0065, 0.0065, 0.0057}, {"bias", 0.016, 0.016, 0.023}};
+  r.gap[0].repeat_floor = 0.0013;
+  r.gap[1].repeat_floor = 0.0017;  // weft 3.8× its own repeats' scatter
+  r.gap[2].repeat_floor = 0.013;
+  std::string note;
+  EXPECT_EQ(unexplained_misfit(r, 2.0, 0.05, &note).rfind("unexplained at weft", 0), 0u);
+  r.gap[0].noise_floor = 0.0046;
+  r.gap[1].noise_floor = 0.0040;  // 1.6× the pooled noise floor
+  r.gap[2].noise_floor = 0.037;
+  EXPECT_EQ(unexplained_misfit(r, 2.0, 0.05, &note), "");
+  // 2.6× it, but the noise makes as large an error with p 0.02 > 0.05/3.
+  r.gap[1].before = 0.0105;
+  for (DiscoverGap& g : r.gap) g.misfit_p = 0.5;
+  r.gap[1].misfit_p = 0.02;
+  note.clear();
+  EXPECT_EQ(unexplained_misfit(r, 2.0, 0.05, &note), "");
+  EXPECT_NE(note.find("weft is 2.6× its floor, but the repeats' noise makes as large an error with p 0.02"),
+            std::string::npos)
+      << note;
+  r.gap[1].misfit_p = 0.001;
+  EXPECT_EQ(unexplained_misfit(r, 2.0, 0.05, &note).rfind("unexplained at weft", 0), 0u);
 }
 
 // ---- the held-out folds --------------------------------------------------------------------

@@ -122,6 +122,7 @@ TEST(DiscoverCommand, UntestableCandidatesAreReportedWithWhatTheyNeed) {
   EXPECT_NE(json.find("needs: a tensile run that goes up and comes back down"), std::string::npos) << json;
   EXPECT_NE(json.find("needs: lateral strain"), std::string::npos) << json;
   EXPECT_EQ(json.find("\"named\": [\n    \""), std::string::npos) << json;  // nothing named
+  EXPECT_NE(json.find("\"repeat_noise\": {"), std::string::npos) << json;  // the canvas's repeats: the load cell's law
   for (const char* file : {"discover.md", "params.yaml", "config.yaml", "baseline-report.json", ".twill-discover"})
     EXPECT_TRUE(fs::exists(out / file)) << file;
   EXPECT_FALSE(fs::exists(out.string() + ".partial"));
