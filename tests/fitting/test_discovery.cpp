@@ -493,7 +493,7 @@ TEST(DiscoverRepeatNoise, APerfectModelIsWithinTheNoiseAndALoadDropIsNot) {
   EXPECT_GT(noise_floor_test(noise, readings(0.03), drop.observed, draws).p_value, 0.5);
 }
 
-// The yarn-damage null twin's lesson (papers/discovery, session 37): with two specimens, one
+// Null-20 twin 8's lesson (papers/discovery, sessions 36–37): with two specimens, one
 // test's repeat scatter put the truth at up to 4× it; the pooled noise floor replaces it where
 // measured, and a misfit needs a p-value below α over the tests that have one.
 TEST(DiscoverJudge, AMisfitWithinTheRepeatsNoiseIsNotUnexplained) {
