@@ -18,6 +18,7 @@
 //      `min_excess_shrink`; several passing are refitted jointly, and one whose score is no
 //      longer significant after the others is `tied` with the one that explained it; named
 //      effects are refitted from the baseline at its finest level.
+#include <cmath>
 #include <limits>
 #include <optional>
 #include <string>
@@ -133,6 +134,11 @@ struct RepeatNoise {
   double level = 0;        ///< the relative sd where the profile is 1: sd(y) = level · profile.at(|y|) · |y|
   double correlation = 0;  ///< the runs' mean lag-one correlation (noise_correlation)
   int runs = 0, rows = 0;  ///< what it was fitted to
+  /// The standard deviation of one reading of magnitude |y| [N].
+  double sd(double reading) const {
+    const double y = std::abs(reading);
+    return level * profile.at(y) * y;
+  }
 };
 /// Per test: the error of the paper's model, of the model with the named effects, and the
 /// noise floor (the mean |noise| the calibration fitted; docs/discovery.md).

@@ -121,7 +121,7 @@ NoiseFloorTest noise_floor_test(const RepeatNoise& noise, const std::vector<RunR
     predicted.push_back(as_vector(run.predicted).array());
     measured.push_back(as_vector(run.measured).array());
     if (!(measured.back().abs().minCoeff() > 0) || !(predicted.back().abs().minCoeff() > 0)) return out;
-    sd.push_back(predicted.back().abs().unaryExpr([&](double y) { return noise.level * noise.profile.at(y) * y; }));
+    sd.push_back(predicted.back().unaryExpr([&](double y) { return noise.sd(y); }));
   }
   if (runs.empty()) return out;
   out.observed = 0;
