@@ -10,7 +10,9 @@ loading then unloading, so a loop shows as a loop), in % of the run's largest me
 the extension, before
 (grey: the paper's model) and after (colour: with the named effects); the title carries the
 test's gap (average relative errors before, after and the noise floor). When nothing is named,
-before only.
+before only. With the load cell's noise law the repeats show (discover.json's repeat_noise), a
+band of ±2 sd of a reading along the first run's loading rows, on the same scale: the rows a
+residual leaves it at are beyond the noise (docs/discovery.md §2).
 Exit status 3 means matplotlib cannot be imported (twill turns that into a clear message).
 """
 import argparse
@@ -24,6 +26,23 @@ def relative(values, measured):
     """Residuals in % of the run's largest |measured| force."""
     largest = max((abs(m) for m in measured), default=0) or 1.0
     return [100 * (v - m) / largest for v, m in zip(values, measured)]
+
+
+# The band's half-width in standard deviations of a reading: 95 % of a row's noise lies within it.
+BAND_SD = 2.0
+
+
+def noise_band(noise, run):
+    """The first run's loading rows (up to its largest extension) and ±BAND_SD sd of a reading
+    there in % of its largest force; None without a law."""
+    if not noise or not run["extension_mm"]:
+        return None
+    top = max(range(len(run["extension_mm"])), key=lambda i: run["extension_mm"][i])
+    largest = max(abs(m) for m in run["measured_N"]) or 1.0
+    w, level, median = noise["absolute_weight"], noise["level"], noise["median_N"]
+    x = run["extension_mm"][:top + 1]
+    half = [100 * BAND_SD * level * ((1 - w) * abs(f) + w * median) / largest for f in run["without_N"][:top + 1]]
+    return x, half
 
 
 def main() -> int:
@@ -48,6 +67,11 @@ def main() -> int:
             for k, c in enumerate(runs):
                 ax.plot(c["extension_mm"], relative(c["with_N"], c["measured_N"]), lw=1.2,
                         label="with " + ", ".join(named) if k == 0 else None)
+        band = noise_band(discover.get("repeat_noise"), runs[0]) if runs else None
+        if band:
+            x, half = band
+            ax.fill_between(x, [-h for h in half], half, color="tab:blue", alpha=0.15, lw=0,
+                            label=f"±{BAND_SD:g} sd of the load cell's noise")
         ax.axhline(0, color="k", lw=0.5)
         # The gap's errors are averages relative to the measured forces, another scale than the
         # axis': they go in the title rather than as a band.
