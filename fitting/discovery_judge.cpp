@@ -527,14 +527,16 @@ OptionSchema discover_config_schema() {
   d.add_component_list("candidates", registry_category::kEffect,
                        "the effects it tests (empty: every registered effect, twill list effect)");
   d.add_double("alpha", DiscoverOptions{}.alpha,
-               "family-wise level of the calibrated score tests (Bonferroni over the candidates tested)")
+               "family-wise level of the calibrated score tests (Bonferroni over the candidates tested) and of an "
+               "`unexplained` misfit against the repeats' noise (Bonferroni over the force tests)")
       .range(1e-6, 0.5);
   d.add_double("min_excess_shrink", DiscoverOptions{}.min_excess_shrink,
                "a named effect divides the misfit in excess of the noise floor at least by this")
       .greater_than(1);
   d.add_double("unexplained_ratio", DiscoverOptions{}.unexplained_ratio,
                "a test whose baseline error exceeds this times its floor is a real misfit: `unexplained` when nothing is "
-               "named; a candidate without a score test (curve-degree, misalignment) is judged only where there is one")
+               "named and the misfit is beyond the repeats' noise at alpha; a candidate without a score test "
+               "(curve-degree, misalignment) is judged only where there is one")
       .greater_than(1);
   d.add_bool("held_out", DiscoverOptions{}.held_out,
              "name a candidate (an effect, or the richer curves) only if it also lowers the error of the data its "
