@@ -88,14 +88,14 @@ std::string params_with_effects(MaterialParameters params, const std::vector<std
 }
 
 // The held-out runs' error of `params` (with `effect` as it holds it, neutral when it holds
-// none) on `held_out`.
-double held_out_error(const Dataset& held_out, const Options& fit, const std::string& effect, const MaterialParameters& params,
-                      int level, const fs::path& file, const Registry& registry) {
+// none) on `held_out`: `effect`'s stage record, unfitted (error_with, and per test).
+FitEffect held_out_record(const Dataset& held_out, const Options& fit, const std::string& effect, const MaterialParameters& params,
+                          int level, const fs::path& file, const Registry& registry) {
   const std::string path = params_with_effects(params, {effect}, file, registry);
   const FitReport r = run_fit(held_out, effect_stages_config(fit, {effect}, path, level, false, registry), registry, {});
   const FitEffect* e = record_of(r.effects, effect);
   if (!e) throw std::logic_error("the held-out evaluation of " + effect + " ran no effect-fit stage");
-  return e->error_with;
+  return *e;
 }
 
 // What the steps after the baseline share: the fit config, a scratch folder for the parameter
@@ -575,11 +575,12 @@ std::vector<DiscoverFold> folds_for(const DiscoverWork& work, const std::string&
 
 // How a candidate is checked on a fold: `fit` fits it on the fold's data from the fold's
 // baseline (`fold` names the progress lines and scratch files), `error` judges parameters on
-// the fold's held-out data (`what` names a scratch file); `doing` says so on the progress line.
+// the fold's held-out data (`what` names a scratch file: its error_with, per test where it has
+// tests); `doing` says so on the progress line.
 struct FoldCheck {
   std::string doing;
   std::function<FitReport(const Dataset& fitted, const MaterialParameters& start, const std::string& fold)> fit;
-  std::function<double(const Dataset& held, const MaterialParameters& params, const std::string& what)> error;
+  std::function<FitEffect(const Dataset& held, const MaterialParameters& params, const std::string& what)> error;
 };
 
 // An effect's: fitted from the fold's baseline with its effect-fit stage, judged by that stage
@@ -590,7 +591,7 @@ FoldCheck effect_fold_check(DiscoverWork& work, const std::string& effect) {
             return fit_effects_from(work, fitted, start, {effect}, fold);
           },
           [&work, effect](const Dataset& held, const MaterialParameters& params, const std::string& what) {
-            return held_out_error(held, work.fit, effect, params, work.level, work.file(what + ".yaml"), work.registry);
+            return held_out_record(held, work.fit, effect, params, work.level, work.file(what + ".yaml"), work.registry);
           }};
 }
 
@@ -649,6 +650,26 @@ DiscoverHeldOut held_out_on(DiscoverWork& work, const std::string& name, const s
   return out;
 }
 
+// A fold's held-out tests, their errors without (`before`'s) and with (`after`'s), added to
+// `tests`; a test already there (held out in an earlier fold too: its other specimens) merged
+// with it, the errors weighted by the runs.
+void add_held_tests(const FitEffect& before, const FitEffect& after, std::vector<FitEffectTest>* tests) {
+  if (before.tests.size() != after.tests.size()) throw std::logic_error("held-out evaluations of different tests");
+  for (size_t i = 0; i < after.tests.size(); ++i) {
+    FitEffectTest t = after.tests[i];
+    t.error_without = before.tests[i].error_with;
+    const auto same = std::find_if(tests->begin(), tests->end(), [&](const FitEffectTest& u) { return u.test == t.test; });
+    if (same == tests->end()) {
+      tests->push_back(t);
+      continue;
+    }
+    const double runs = same->runs + t.runs, w = runs > 0 ? t.runs / runs : 0.5;
+    same->error_without += w * (t.error_without - same->error_without);
+    same->error_with += w * (t.error_with - same->error_with);
+    same->runs += t.runs;
+  }
+}
+
 // The folds of a held-out check: candidate `name` fitted on each from its baseline, both judged
 // on its held-out data; the errors averaged over the folds into `out`, the folds' effect
 // parameters kept (an effect's).
@@ -663,8 +684,11 @@ void held_out_folds(DiscoverWork& work, const std::string& name, const std::vect
     if (work.progress) work.progress(0, "held-out check " + fold + ": " + check.doing + " " + out.held);
     const FitReport with = check.fit(f.fitted, without, fold);
     if (const FitEffect* e = record_of(with.effects, name)) out.folds.push_back(e->parameters);
-    out.without += weight * check.error(f.held, without, fold + " without");
-    out.with += weight * check.error(f.held, with.parameters, fold + " with");
+    const FitEffect before = check.error(f.held, without, fold + " without");
+    const FitEffect after = check.error(f.held, with.parameters, fold + " with");
+    out.without += weight * before.error_with;
+    out.with += weight * after.error_with;
+    add_held_tests(before, after, &out.tests);
     work.timed("held-out check " + fold, t);
   }
 }
@@ -686,9 +710,11 @@ DiscoverHeldOut curve_degree_held_out(DiscoverWork& work, const DiscoverResult& 
         return run_fit(fitted, curves_refit_config(work, path, true), work.registry, prefixed(work.progress, fold));
       },
       [&work, measure](const Dataset& held, const MaterialParameters& params, const std::string& what) {
-        return measure ? held_out_error(held, work.fit, measure->name, params, work.level, work.file(what + ".yaml"),
-                                        work.registry)
-                       : fit_runs_error_at(held, work.fit, work.registry, params, work.level);
+        if (measure)
+          return held_out_record(held, work.fit, measure->name, params, work.level, work.file(what + ".yaml"), work.registry);
+        FitEffect runs;
+        runs.error_with = fit_runs_error_at(held, work.fit, work.registry, params, work.level);
+        return runs;
       }};
   return held_out_on(work, kCurveDegreeCandidate, folds, out.held, check);
 }
@@ -757,6 +783,39 @@ void check_held_out(DiscoverWork& work, const JointRefit& joint, DiscoverResult*
     else if (in_joint && c.status == kRejected)
       c.held_out.note = "the pairwise rule rejected it first";
   }
+}
+
+// The two score-tested effects the judge left tied, when there are exactly two.
+std::vector<DiscoverCandidate*> tied_effects(DiscoverResult* result) {
+  std::vector<DiscoverCandidate*> tied;
+  for (DiscoverCandidate& c : result->candidates)
+    if (c.status == kTied && c.name != kCurveDegreeCandidate && c.effect && std::isfinite(c.effect->score))
+      tied.push_back(&c);
+  if (tied.size() != 2) return {};
+  return tied;
+}
+
+// A tie the held-out data can separate (docs/discovery.md §1, "Ties the held-out data
+// separates"): two tied effects whose own checks held out different things — rate-dependence a
+// crosshead speed, hysteresis specimens — are both judged on the folds of the one that held out
+// more than specimens: the other fitted at one speed (from the fold's baseline, as its own check
+// is) and judged at the other, into `separating` (judge_candidates then weighs the two there:
+// tie_or_reject). The one whose own check is on those folds keeps it. True when it ran.
+bool separate_tie(DiscoverWork& work, DiscoverResult* result) {
+  const std::vector<DiscoverCandidate*> tied = tied_effects(result);
+  if (tied.empty() || !tied[0]->held_out.evaluated || !tied[1]->held_out.evaluated ||
+      tied[0]->held_out.held == tied[1]->held_out.held)
+    return false;
+  DiscoverCandidate& discriminating = tied[0]->held_out.held != kHeldSpecimens ? *tied[0] : *tied[1];
+  DiscoverCandidate& other = &discriminating == tied[0] ? *tied[1] : *tied[0];
+  std::string held, note;
+  const std::vector<DiscoverFold> folds = folds_for(work, discriminating.name, &held, &note);
+  if (folds.empty() || held != discriminating.held_out.held) return false;
+  if (work.progress)
+    work.progress(0, fmt::format("tied: {}|{}: {} checked on the held-out {} as well", discriminating.name, other.name, other.name, held));
+  discriminating.separating = discriminating.held_out;
+  other.separating = held_out_on(work, other.name, folds, held, effect_fold_check(work, other.name));
+  return true;
 }
 
 // curve-degree named alone, screened below the baseline's finest level: the curves raised again
@@ -845,6 +904,8 @@ DiscoverResult run_discover(const Dataset& dataset, const Options& config, const
     refit_jointly(work, options, first, &result, &joint);
   if (options.held_out) check_held_out(work, joint, &result);
   judge_candidates(options, joint.records(result), &result, joint.reversed_records());
+  if (options.held_out && separate_tie(work, &result))
+    judge_candidates(options, joint.records(result), &result, joint.reversed_records());
   refit_named(work, options, reports, joint, &result);
   measure_gap(result, floors_by_test(result.candidates), &result.gap, &result.gap_rows, &result.curves);
   const std::map<std::string, double> repeats = repeat_floors(dataset);

@@ -59,6 +59,11 @@ struct DiscoverOptions {
 /// docs/discovery.md).
 inline constexpr const char* kCurveDegreeCandidate = "curve-degree";
 
+/// What a held-out check's folds held out (DiscoverHeldOut::held, discover_folds): specimens, the
+/// folds every effect can take, or crosshead speeds.
+inline constexpr const char* kHeldSpecimens = "specimens";
+inline constexpr const char* kHeldSpeeds = "speeds";
+
 /// The held-out check of a candidate (run_discover): two folds of the specimens (each fit test's
 /// runs of even and of odd index), each fitted without and with the effect and evaluated on the
 /// other fold's runs; the mean over the folds of the held-out runs' error.
@@ -70,7 +75,11 @@ struct DiscoverHeldOut {
   /// spread is the parameters' interval, and their sides of the neutral values the stability).
   std::vector<std::vector<FitEffectParameter>> folds = {};
   std::string failure = {};  ///< what stopped it, when a fold's fit or evaluation failed (the candidate fails)
-  std::string held = "specimens";  ///< what the folds held out: "specimens" or "speeds" (Effect::held_out)
+  std::string held = kHeldSpecimens;  ///< what the folds held out: kHeldSpecimens, kHeldSpeeds, ... (Effect::held_out)
+  /// Per held-out test, its error without and with (error_without, error_with; the folds'
+  /// evaluations together, a test held out in two folds merged, runs-weighted): what
+  /// the excess over each test's floor is measured on. Empty where the check's error has no tests.
+  std::vector<FitEffectTest> tests = {};
 };
 
 /// A held-out check's fold: the data a fit sees and the data it is judged on.
@@ -84,7 +93,7 @@ struct DiscoverFold {
 /// speed of the fit tests (fitted on that speed's tests, judged on the others'; validation tests
 /// in both) when there are two or more speeds, otherwise two specimen folds (even and odd runs
 /// of every fit test); none, with `why`, when every fit test has one specimen. `held` names what
-/// was held out: "speeds" or "specimens".
+/// was held out: kHeldSpeeds or kHeldSpecimens.
 std::vector<DiscoverFold> discover_folds(const Dataset& dataset, Effect::HeldOut kind, std::string* held, std::string* why);
 
 /// The folds of an effect fitted to the cantilevers' chord angles (bending-anisotropy): each
@@ -118,6 +127,9 @@ struct DiscoverCandidate {
   std::string reason;  ///< in words: what it needs, which criterion it failed, the error
   std::optional<FitEffect> effect;  ///< its effect-fit stage's record, when fitted
   DiscoverHeldOut held_out;          ///< for candidates that passed on the fitted data
+  /// For one of a tied pair whose held-out kinds differ (one holds out speeds): its check on the
+  /// folds that separate the two (separate_tie, docs/discovery.md §1); not evaluated otherwise.
+  DiscoverHeldOut separating = {};
 };
 
 /// The load cell's noise as every fit test's repeats show it (discovery_noise.cpp;

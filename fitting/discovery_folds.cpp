@@ -108,11 +108,11 @@ std::vector<DiscoverFold> discover_folds(const Dataset& dataset, Effect::HeldOut
   if (kind == Effect::HeldOut::speeds) {
     std::vector<DiscoverFold> folds = speed_folds(dataset);
     if (!folds.empty()) {
-      *held = "speeds";
+      *held = kHeldSpeeds;
       return folds;
     }
   }
-  *held = "specimens";
+  *held = kHeldSpecimens;
   if (!has_repeats(dataset)) {
     *why = "every fit test has one specimen (needs two or more per test)";
     return {};

@@ -208,10 +208,10 @@ struct Excess {
   double floor = std::numeric_limits<double>::quiet_NaN();
 };
 
-Excess excess_over_floors(const FitEffect& e, const std::map<std::string, double>& floors) {
+Excess excess_over_floors(const std::vector<FitEffectTest>& tests, const std::map<std::string, double>& floors) {
   double before = 0, after = 0, floor = 0;
   int runs = 0;
-  for (const FitEffectTest& t : e.tests) {
+  for (const FitEffectTest& t : tests) {
     const auto found = floors.find(t.test);
     if (found == floors.end()) continue;
     before += t.runs * std::max(t.error_without - found->second, 0.0);
@@ -319,7 +319,7 @@ void judge_held_out(const FitEffect& e, DiscoverCandidate* c) {
 void judge_one(const DiscoverOptions& options, double threshold, const std::map<std::string, double>& floors,
                const FitEffect* richer, DiscoverCandidate* c) {
   const FitEffect& e = *c->effect;
-  const Excess excess = excess_over_floors(e, floors);
+  const Excess excess = excess_over_floors(e.tests, floors);
   std::string gain;
   const bool shrinks = std::isfinite(excess.floor) && excess_shrinks(e, excess, options.min_excess_shrink, &gain);
   if (!std::isfinite(excess.floor))
@@ -366,14 +366,26 @@ void judge_one(const DiscoverOptions& options, double threshold, const std::map<
   if (shrinks) judge_held_out(e, c);
 }
 
-// The excess over the floors a candidate fitted alone leaves (test by test, excess_over_floors),
+// The excess over the floors a candidate leaves on `tests` (test by test, excess_over_floors),
 // zero when it is within what the floor's own estimate can resolve: the floor is a mean |u| over the effect's n rows, whose
 // relative standard error for Gaussian u is √(π/2 − 1)/√n ≈ 0.76/√n, 5–6 % at the 140–300 rows
 // of a generated dataset; an excess below two of those (a tenth of the floor) is not there.
 constexpr double kResolvableExcess = 0.1;  ///< of the floor
-double excess_left(const DiscoverCandidate& c, const std::map<std::string, double>& floors) {
-  const Excess x = excess_over_floors(*c.effect, floors);
+double excess_left(const std::vector<FitEffectTest>& tests, const std::map<std::string, double>& floors) {
+  const Excess x = excess_over_floors(tests, floors);
   return x.after > kResolvableExcess * x.floor ? x.after : 0.0;
+}
+
+// `loser` rejected, and true returned, when it leaves (`mine`) min_excess_shrink times what
+// `winner` leaves (`theirs`) over the floors, and something: `where` says where the two were
+// measured, `verb` what the winner does that it does not.
+bool rejected_for_leaving_more(DiscoverCandidate& loser, const DiscoverCandidate& winner, double mine, double theirs,
+                               double min_excess_shrink, const std::string& where, const std::string& verb) {
+  if (!(mine >= min_excess_shrink * theirs && mine > 0)) return false;
+  loser.status = kRejected;
+  loser.reason += fmt::format(", and {} it leaves {:.2f} % over the floor against {}'s {:.2f} %: {} {}", where, 100 * mine,
+                              winner.name, 100 * theirs, winner.name, verb);
+  return true;
 }
 
 // Two passing candidates, each explaining nothing the other does not (in the joint refit): that
@@ -385,18 +397,40 @@ double excess_left(const DiscoverCandidate& c, const std::map<std::string, doubl
 // 0.09; at one speed the two are within that factor, a tie).
 bool rejected_by_excess(DiscoverCandidate& loser, const DiscoverCandidate& winner, const std::map<std::string, double>& floors,
                         double min_excess_shrink) {
-  const double mine = excess_left(loser, floors), theirs = excess_left(winner, floors);
-  if (!(mine >= min_excess_shrink * theirs && mine > 0)) return false;
-  loser.status = kRejected;
-  loser.reason += fmt::format(", and alone it leaves {:.2f} % over the floor against {}'s {:.2f} %: {} explains more",
-                              100 * mine, winner.name, 100 * theirs, winner.name);
-  return true;
+  return rejected_for_leaving_more(loser, winner, excess_left(loser.effect->tests, floors),
+                                   excess_left(winner.effect->tests, floors), min_excess_shrink, "alone", "explains more");
 }
 
-// Both `a` and `b` tied unless the alone fits' excesses reject one (rejected_by_excess).
+// The same on the held-out data that separates two tied effects (DiscoverCandidate::separating:
+// both fitted on one speed and judged at the other, run_discover's separate_tie): the one that
+// leaves min_excess_shrink times the other's excess over the held-out tests' floors predicts
+// less of what the other speed shows (a friction loop as wide at either speed where the rate loop
+// narrows, or a rate loop narrowing where the friction loop does not). Nothing where either was
+// not checked there.
+bool rejected_held_out(DiscoverCandidate& loser, const DiscoverCandidate& winner, const std::map<std::string, double>& floors,
+                       double min_excess_shrink) {
+  const DiscoverHeldOut &mine = loser.separating, &theirs = winner.separating;
+  if (!mine.evaluated || !theirs.evaluated || mine.held != theirs.held) return false;
+  return rejected_for_leaving_more(loser, winner, excess_left(mine.tests, floors), excess_left(theirs.tests, floors),
+                                   min_excess_shrink, "on the held-out " + mine.held + " (fitted on the others)",
+                                   "predicts more");
+}
+
+// Both `a` and `b` tied unless the alone fits' excesses reject one (rejected_by_excess), or
+// their checks on the data that separates them do (rejected_held_out).
 void tie_or_reject(DiscoverCandidate& a, DiscoverCandidate& b, const std::map<std::string, double>& floors,
                    double min_excess_shrink, std::vector<std::string>* ties) {
-  if (rejected_by_excess(b, a, floors, min_excess_shrink) || rejected_by_excess(a, b, floors, min_excess_shrink)) return;
+  if (rejected_by_excess(b, a, floors, min_excess_shrink) || rejected_by_excess(a, b, floors, min_excess_shrink) ||
+      rejected_held_out(b, a, floors, min_excess_shrink) || rejected_held_out(a, b, floors, min_excess_shrink))
+    return;
+  if (a.separating.evaluated && b.separating.evaluated && a.separating.held == b.separating.held) {
+    const std::string apart = fmt::format(
+        "; on the held-out {} (each fitted on the others) {} leaves {:.2f} % over the floor and {} {:.2f} %: not {:g}× apart",
+        a.separating.held, a.name, 100 * excess_left(a.separating.tests, floors), b.name,
+        100 * excess_left(b.separating.tests, floors), min_excess_shrink);
+    a.reason += apart;
+    b.reason += apart;
+  }
   a.status = b.status = kTied;
   ties->push_back(fmt::format("tied: {}|{} (needs: {})", a.name, b.name, needs_to_separate(a.name, b.name)));
 }

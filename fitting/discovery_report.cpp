@@ -44,6 +44,20 @@ std::optional<std::pair<double, double>> fold_interval(const DiscoverCandidate& 
   return std::make_pair(lo, hi);
 }
 
+// A held-out check: what was held out, the errors without and with (overall and per held-out
+// test), or why it failed or was not run; nothing when it was not asked for.
+std::optional<json> held_out_json(const DiscoverHeldOut& h) {
+  if (h.evaluated) {
+    json tests = json::array();
+    for (const FitEffectTest& t : h.tests)
+      tests.push_back({{"test", t.test}, {"runs", t.runs}, {"error_without", t.error_without}, {"error_with", t.error_with}});
+    return json{{"held", h.held}, {"error_without", h.without}, {"error_with", h.with}, {"tests", tests}};
+  }
+  if (!h.failure.empty()) return json{{"failed", h.failure}};
+  if (!h.note.empty()) return json{{"not_evaluated", h.note}};
+  return std::nullopt;
+}
+
 json candidate_json(const DiscoverCandidate& c) {
   json j = {{"name", c.name}, {"status", c.status}, {"reason", c.reason}};
   if (!c.effect) return j;
@@ -61,12 +75,8 @@ json candidate_json(const DiscoverCandidate& c) {
     j["tests"].push_back({{"test", t.test}, {"runs", t.runs}, {"error_without", t.error_without},
                           {"error_with", t.error_with}, {"noise_floor", number(t.noise_floor)},
                           {"score_share", number(t.score_share)}});
-  if (c.held_out.evaluated)
-    j["held_out"] = {{"held", c.held_out.held}, {"error_without", c.held_out.without}, {"error_with", c.held_out.with}};
-  else if (!c.held_out.failure.empty())
-    j["held_out"] = {{"failed", c.held_out.failure}};
-  else if (!c.held_out.note.empty())
-    j["held_out"] = {{"not_evaluated", c.held_out.note}};
+  if (const auto held = held_out_json(c.held_out)) j["held_out"] = *held;
+  if (const auto held = held_out_json(c.separating)) j["separating_check"] = *held;
   j["parameters"] = json::array();
   for (size_t i = 0; i < e.parameters.size(); ++i) {
     const FitEffectParameter& p = e.parameters[i];

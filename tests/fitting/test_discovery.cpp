@@ -203,6 +203,49 @@ TEST(DiscoverJudge, TwoEffectsScoredEachAfterTheOtherKeepWhatAddsSomething) {
       << apart.candidates[0].reason;
 }
 
+// A tie the held-out speeds separate (separate_tie): rate hidden at 20 % scatter, two speeds,
+// seed 4 (papers/discovery, session 38) read `tied: hysteresis|rate-dependence` — each adds
+// nothing beside the other, and alone they leave 0.11 and 0.01 points, both within a tenth of
+// the floor — while the dataset has the runs at two speeds the tie says it needs. Both fitted at
+// one speed and judged at the other, the one that leaves 3× the other's excess there is rejected.
+TEST(DiscoverJudge, ATieIsSeparatedOnTheHeldOutSpeedsWhereOnePredictsThreeTimesBetter) {
+  std::vector<DiscoverCandidate> both = {fitted("hysteresis", 1e-4, 0.08, 0.0105), fitted("rate-dependence", 1e-4, 0.08, 0.0101)};
+  const std::vector<FitEffect> joint = {*both[0].effect, *both[1].effect}, reversed = {*both[1].effect, *both[0].effect};
+  std::vector<FitEffect> joint_p = joint, reversed_p = reversed;
+  joint_p[1].score_p_value = 0.4;  // rate after hysteresis
+  reversed_p[1].score_p_value = 0.6;  // hysteresis after rate
+  const auto held_speeds = [](double warp_with, double weft_with) {
+    DiscoverHeldOut h{true, 0.04, (warp_with + weft_with) / 2, ""};
+    h.held = kHeldSpeeds;
+    h.tests = {{"warp", 1, 0.04, warp_with}, {"weft", 1, 0.04, weft_with}};
+    return h;
+  };
+  EXPECT_EQ(judged(both, &joint_p, &reversed_p).verdict.rfind("tied: hysteresis|rate-dependence", 0), 0u);
+  // Friction predicts the other speed's loop as wide as its own: 1.5 points over the floor
+  // against rate's 0.3.
+  both[0].separating = held_speeds(0.025, 0.025);
+  both[1].separating = held_speeds(0.013, 0.013);
+  const DiscoverResult apart = judged(both, &joint_p, &reversed_p);
+  EXPECT_EQ(apart.named, std::vector<std::string>{"rate-dependence"}) << apart.verdict;
+  EXPECT_EQ(apart.candidates[0].status, "rejected");
+  EXPECT_NE(apart.candidates[0].reason.find("on the held-out speeds (fitted on the others) it leaves 1.50 %"), std::string::npos)
+      << apart.candidates[0].reason;
+  EXPECT_NE(apart.candidates[0].reason.find("rate-dependence predicts more"), std::string::npos) << apart.candidates[0].reason;
+  // Within 3× of each other (0.8 against 0.3 points), or only one checked there: still a tie.
+  both[0].separating = held_speeds(0.018, 0.018);
+  const DiscoverResult close = judged(both, &joint_p, &reversed_p);
+  EXPECT_EQ(close.verdict.rfind("tied: hysteresis|rate-dependence", 0), 0u);
+  EXPECT_NE(close.candidates[1].reason.find("hysteresis leaves 0.80 % over the floor and rate-dependence 0.30 %: not 3× apart"),
+            std::string::npos)
+      << close.candidates[1].reason;
+  both[0].separating = {};
+  EXPECT_EQ(judged(both, &joint_p, &reversed_p).verdict.rfind("tied: hysteresis|rate-dependence", 0), 0u);
+  // Checked on different data (speeds against specimens), the two are not compared.
+  both[0].separating = held_speeds(0.025, 0.025);
+  both[0].separating.held = kHeldSpecimens;
+  EXPECT_EQ(judged(both, &joint_p, &reversed_p).verdict.rfind("tied: hysteresis|rate-dependence", 0), 0u);
+}
+
 TEST(DiscoverJudge, ARicherCurveThatExplainsTheMisfitTooIsTiedWithTheEffect) {
   // curve-degree has no score test: it passes on the shrink alone, and alone it is named.
   DiscoverCandidate curve = fitted(kCurveDegreeCandidate, std::numeric_limits<double>::quiet_NaN(), 0.08, 0.012);
@@ -578,7 +621,7 @@ TEST(DiscoverFolds, AnEffectThatPredictsSpeedsIsHeldOutBySpeedOtherwiseBySpecime
                         test_at("bias-30", 45, 30, 2), test_at("a22.5", 22.5, 300, 1, TestRole::Validation)};
   std::string held, why;
   const std::vector<DiscoverFold> speeds = discover_folds(two_speeds, Effect::HeldOut::speeds, &held, &why);
-  EXPECT_EQ(held, "speeds");
+  EXPECT_EQ(held, kHeldSpeeds);
   ASSERT_EQ(speeds.size(), 2u);
   EXPECT_EQ(speeds[0].name, "at 300 mm/min");
   // Fitted on one speed's tests, judged on the other's; the validation strip stays in both.
@@ -587,7 +630,7 @@ TEST(DiscoverFolds, AnEffectThatPredictsSpeedsIsHeldOutBySpeedOtherwiseBySpecime
   EXPECT_EQ(labels(speeds[1].fitted), labels(speeds[0].held));
   // Other specimens for any other effect: every test kept, its runs split by parity.
   const std::vector<DiscoverFold> specimens = discover_folds(two_speeds, Effect::HeldOut::specimens, &held, &why);
-  EXPECT_EQ(held, "specimens");
+  EXPECT_EQ(held, kHeldSpecimens);
   ASSERT_EQ(specimens.size(), 2u);
   EXPECT_EQ(specimens[0].fitted.tensile[0].runs[0].path, "warp-300-1.csv");
   EXPECT_EQ(specimens[0].held.tensile[0].runs[0].path, "warp-300-2.csv");
@@ -595,7 +638,7 @@ TEST(DiscoverFolds, AnEffectThatPredictsSpeedsIsHeldOutBySpeedOtherwiseBySpecime
   Dataset one_speed;
   one_speed.tensile = {test_at("warp", 90, 300, 2), test_at("weft", 0, std::nullopt, 2)};
   EXPECT_EQ(discover_folds(one_speed, Effect::HeldOut::speeds, &held, &why).size(), 2u);
-  EXPECT_EQ(held, "specimens");
+  EXPECT_EQ(held, kHeldSpecimens);
   one_speed.tensile = {test_at("warp", 90, 300, 1), test_at("weft", 0, 300, 1)};
   EXPECT_TRUE(discover_folds(one_speed, Effect::HeldOut::speeds, &held, &why).empty());
   EXPECT_NE(why.find("one specimen"), std::string::npos) << why;

@@ -776,7 +776,7 @@ TEST(Discover, ARicherCurveIsNotPassedOffAsPhysics) {
   // It holds on held-out specimens: the curves raised on one fold, judged on the other's rows
   // (hysteresis', the effect neutral) against that fold's baseline.
   EXPECT_TRUE(curve.held_out.evaluated) << curve.held_out.failure << curve.held_out.note;
-  EXPECT_EQ(curve.held_out.held, "specimens");
+  EXPECT_EQ(curve.held_out.held, kHeldSpecimens);
   EXPECT_LT(curve.held_out.with, 0.5 * curve.held_out.without);
   std::printf("[measured] discover richer curve: held-out specimens %.2f %% without, %.2f %% with\n",
               100 * curve.held_out.without, 100 * curve.held_out.with);
@@ -895,7 +895,7 @@ TEST(Discover, NamesFrictionNotRateWhereTwoSpeedsSeparateThem) {
   const DiscoverCandidate& rate = candidate(r, "rate-dependence");
   EXPECT_NE(rate.status, "failed") << rate.reason;
   if (rate.held_out.evaluated) {
-    EXPECT_EQ(rate.held_out.held, "speeds");
+    EXPECT_EQ(rate.held_out.held, kHeldSpeeds);
   }
 }
 
