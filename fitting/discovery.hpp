@@ -167,6 +167,11 @@ struct DiscoverGap {
   /// force test, or something was named).
   double noise_floor = std::numeric_limits<double>::quiet_NaN();
   double misfit_p = std::numeric_limits<double>::quiet_NaN();
+  /// A lateral-strain test's `before` with the mesh's and a 1° cut's patterns fitted out
+  /// (FitEffectTest::error_beyond_known; NaN elsewhere): what `unexplained` judges there.
+  double before_beyond_known = std::numeric_limits<double>::quiet_NaN();
+  /// The error `unexplained` judges: before_beyond_known where measured, else before.
+  double judged_before() const { return std::isfinite(before_beyond_known) ? before_beyond_known : before; }
 };
 
 struct DiscoverResult {

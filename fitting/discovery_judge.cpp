@@ -147,6 +147,7 @@ void measure_gap(const DiscoverResult& result, const std::map<std::string, doubl
         gap->push_back({t.test, t.error_without, t.error_without,
                         floor != floors.end() ? floor->second : std::numeric_limits<double>::quiet_NaN()});
         g = gap->end() - 1;
+        g->before_beyond_known = t.error_beyond_known;
       }
       g->after = result.refit ? t.error_with : t.error_without;
     }
@@ -863,23 +864,30 @@ std::string unexplained_misfit(const DiscoverResult& result, double ratio, doubl
     const double floor = misfit_floor(g);
     if (!std::isfinite(floor)) continue;
     const double richer = richer_curve_error(result, g.test);
-    const Misfit m = misfit_of(g.before, floor, richer, ratio);
-    if (m == Misfit::None) continue;
+    const double before = g.judged_before();
+    const Misfit m = misfit_of(before, floor, richer, ratio);
+    if (m == Misfit::None) {
+      if (note && std::isfinite(g.before_beyond_known) && g.before > ratio * floor)
+        *note += fmt::format("{}{} is {:.1f}× its floor, {:.1f}× with the mesh's and a 1° cut's patterns fitted out "
+                             "(what every strip's cut shares): not a misfit",
+                             note->empty() ? "" : "; ", g.test, g.before / floor, before / floor);
+      continue;
+    }
     if (!beyond_the_noise(g, threshold)) {
       if (note)
         *note += fmt::format("{}{} is {:.1f}× its floor, but the repeats' noise makes as large an error with p {:.2g} "
                              "(α/n = {:.2g}): not a misfit",
-                             note->empty() ? "" : "; ", g.test, g.before / floor, g.misfit_p, threshold);
+                             note->empty() ? "" : "; ", g.test, before / floor, g.misfit_p, threshold);
       continue;
     }
     if (m == Misfit::CurvesShape) {
       if (note)
         *note += fmt::format("{}{} is {:.1f}× its floor with the protocol's curves and {:.1f}× with the curves raised "
                              "until their error stops falling (curve-degree): the curves' shape, not a missing effect",
-                             note->empty() ? "" : "; ", g.test, g.before / floor, richer / floor);
+                             note->empty() ? "" : "; ", g.test, before / floor, richer / floor);
       continue;
     }
-    if (!worst || g.before / floor > worst->before / misfit_floor(*worst)) worst = &g;
+    if (!worst || before / floor > worst->judged_before() / misfit_floor(*worst)) worst = &g;
   }
   if (!worst) return "";
   return std::string(kUnexplained) + " at " + worst->test + misfit_range(result, worst->test, ratio * misfit_floor(*worst), alpha);

@@ -73,7 +73,7 @@ json candidate_json(const DiscoverCandidate& c) {
   j["tests"] = json::array();  // what the judge weighed, test by test (excess_over_floors)
   for (const FitEffectTest& t : e.tests)
     j["tests"].push_back({{"test", t.test}, {"runs", t.runs}, {"error_without", t.error_without},
-                          {"error_with", t.error_with}, {"noise_floor", number(t.noise_floor)},
+                          {"error_with", t.error_with}, {"noise_floor", number(t.noise_floor)}, {"error_beyond_known", number(t.error_beyond_known)},
                           {"score_share", number(t.score_share)}});
   if (const auto held = held_out_json(c.held_out)) j["held_out"] = *held;
   if (const auto held = held_out_json(c.separating)) j["separating_check"] = *held;
@@ -115,7 +115,8 @@ json discover_json(const DiscoverResult& r, const Options& config) {
   for (const DiscoverGap& g : r.gap)
     gap[g.test] = {{"before", g.before}, {"after", g.after}, {"floor", number(g.floor)},
                    {"repeat_floor", number(g.repeat_floor)}, {"resolution_error", number(g.resolution_error)},
-                   {"noise_floor", number(g.noise_floor)}, {"misfit_p", number(g.misfit_p)}};
+                   {"noise_floor", number(g.noise_floor)}, {"misfit_p", number(g.misfit_p)},
+                   {"before_beyond_known", number(g.before_beyond_known)}};
   json candidates = json::array();
   for (const DiscoverCandidate& c : r.candidates) candidates.push_back(candidate_json(c));
   return {{"dataset", r.baseline.dataset},
@@ -154,11 +155,14 @@ std::string discover_markdown(const DiscoverResult& r) {
         "neither the baseline nor an effect explains, at its neutral values or fitted; docs/discovery.md §2) beside the "
         "repeats' own scatter about their mean curve (no model) and, when nothing is named, the baseline's resolution "
         "error (its strip one level finer), the error the repeats' pooled noise makes a perfect model miss by (noise "
-        "floor) and the p-value of `before` against it (§2, \"The noise floor from the repeats\").\n\n"
+        "floor) and the p-value of `before` against it (§2, \"The noise floor from the repeats\"); a lateral strain's "
+        "`before` also with the mesh's and a 1° cut's patterns fitted out, in brackets (what `unexplained` judges "
+        "there, §1).\n\n"
         "| test | before | after | floor | repeats' scatter | resolution error | noise floor | p (misfit) |\n"
         "|---|---|---|---|---|---|---|---|\n";
   for (const DiscoverGap& g : r.gap)
-    md << "| " << g.test << " | " << cell(g.before) << " | " << cell(g.after) << " | " << cell(g.floor) << " | "
+    md << "| " << g.test << " | " << cell(g.before)
+       << (std::isfinite(g.before_beyond_known) ? " (" + cell(g.before_beyond_known) + ")" : "") << " | " << cell(g.after) << " | " << cell(g.floor) << " | "
        << cell(g.repeat_floor) << " | " << cell(g.resolution_error) << " | " << cell(g.noise_floor) << " | "
        << (std::isfinite(g.misfit_p) ? fmt::format("{:.2g}", g.misfit_p) : "—") << " |\n";
   if (r.noise)

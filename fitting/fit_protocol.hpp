@@ -138,6 +138,12 @@ struct FitEffectTest {
   double noise_floor = std::numeric_limits<double>::quiet_NaN();
   /// Its runs' share of the score's T (ScoreTest::run_share summed; NaN without a score test).
   double score_share = std::numeric_limits<double>::quiet_NaN();
+  /// A lateral-strain test's error without the effect once the mesh's and a 1° cut's patterns
+  /// (the score test's known directions, effect_fit.cpp lateral_known_directions) are fitted
+  /// out of its rows, by least squares over the test's runs: what `twill discover` judges an
+  /// unexplained lateral misfit on (docs/discovery.md §1). NaN for other tests, or where the
+  /// patterns were not measured.
+  double error_beyond_known = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// One force run of an effect-fit stage: its rows in file order (loading, then unloading) and

@@ -146,7 +146,8 @@ json effect_json(const FitEffect& e) {
   json tests = json::array();
   for (const FitEffectTest& t : e.tests)
     tests.push_back({{"test", t.test}, {"runs", t.runs}, {"error_without", t.error_without},
-                     {"error_with", t.error_with}, {"noise_floor", nullable(t.noise_floor)}});
+                     {"error_with", t.error_with}, {"noise_floor", nullable(t.noise_floor)},
+                     {"error_beyond_known", nullable(t.error_beyond_known)}});
   return {{"effect", e.effect}, {"resolution", e.resolution}, {"runs", e.runs},
           {"points", e.points}, {"error_without", e.error_without},
           {"error_with", e.error_with},

@@ -57,7 +57,48 @@ constexpr double kStiffnessStep = 0.01;
 /// (it goes as the offset's square: an 8×12 warp strip's contraction grows by 0.9…6.6 % from 1
 /// to 12 mm at 1°, by 2.6…19.7 % at 1.7°, 2.9× for 1.7² = 2.89).
 constexpr double kCutProbeDeg = 1.0;
-/// An effect parameter whose neutral value is 0 has no scale of its own: x = 1 stands for this
+
+// How far the lateral strains' known patterns can reach in the `unexplained` rule's error
+// (set_errors_beyond_known). The mesh's: the continuum's error is the sum of every finer
+// level's step, at an order p ≥ 1 at most 1/(1 − 2^−p) ≤ 2 times the one step measured (and
+// of its sign: data are finer than the fit). The cuts': their shared narrowing grows as the
+// square of the offset (lateral_known_directions), so a spread of kCutSpreadBoundDeg reaches
+// (kCutSpreadBoundDeg / kCutProbeDeg)² times the 1° pattern. 2° RMS is twice the generator's
+// cuts (papers/hidden_effects) and about what a 50 mm strip cut by hand against a yarn
+// drifts (1.7 mm over 50 mm); a larger spread is left to misalignment's candidate.
+constexpr double kMeshPatternReach = 2.0;
+constexpr double kCutSpreadBoundDeg = 2.0;
+
+// argmin over 0 ≤ c ≤ upper of ‖e − a c‖ for a few columns: each coefficient free, at 0 or at
+// its upper bound, the best feasible of the 3^n choices (a convex problem's minimum is one).
+Eigen::VectorXd box_least_squares(const Eigen::MatrixXd& a, const Eigen::VectorXd& e, const Eigen::VectorXd& upper) {
+  const Eigen::Index n = a.cols();
+  Eigen::VectorXd best = Eigen::VectorXd::Zero(n);
+  double best_residual = e.squaredNorm();
+  int choices = 1;
+  for (Eigen::Index i = 0; i < n; ++i) choices *= 3;
+  for (int code = 0; code < choices; ++code) {
+    Eigen::VectorXd c = Eigen::VectorXd::Zero(n);
+    std::vector<Eigen::Index> free;
+    for (Eigen::Index i = 0, k = code; i < n; ++i, k /= 3) {
+      if (k % 3 == 0) free.push_back(i);
+      if (k % 3 == 2) c[i] = upper[i];
+    }
+    if (!free.empty()) {
+      Eigen::MatrixXd columns(a.rows(), static_cast<Eigen::Index>(free.size()));
+      for (size_t j = 0; j < free.size(); ++j) columns.col(static_cast<Eigen::Index>(j)) = a.col(free[j]);
+      const Eigen::VectorXd x = columns.colPivHouseholderQr().solve(e - a * c);
+      for (size_t j = 0; j < free.size(); ++j) c[free[j]] = x[static_cast<Eigen::Index>(j)];
+    }
+    if ((c.array() < 0).any() || (c.array() > upper.array()).any()) continue;
+    const double residual = (e - a * c).squaredNorm();
+    if (residual < best_residual) {
+      best_residual = residual;
+      best = c;
+    }
+  }
+  return best;
+}/// An effect parameter whose neutral value is 0 has no scale of its own: x = 1 stands for this
 /// fraction of its range (hysteresis' frictions: 100 N/m of [0, 1e5], a few % of a strip's
 /// force per width).
 constexpr double kScaleOfRange = 1e-3;
@@ -352,6 +393,72 @@ class EffectFit final : public FitStage {
     set_errors(o.tests, without, with,
                smaller_noise(noise, noise_at_fit(context, u.free, n_effect, u.map_options, o.predictors, o.force_runs, lateral)),
                result);
+    set_errors_beyond_known(o, predicted_without, lateral.known, result);
+  }
+
+  // Each lateral test's error at the neutral values with its known patterns taken out as far as
+  // they can physically reach (FitEffectTest::error_beyond_known): the residual m − p of the
+  // test's runs, least squares against its two patterns in strain units (the columns of `known`
+  // are relative to the measured, lateral_known_directions) with bounded amplitudes — the
+  // mesh's in [0, kMeshPatternReach], a 1° cut's in [0, (kCutSpreadBoundDeg / kCutProbeDeg)²]
+  // (box_least_squares) — each run's Σ|m − p − a c| / Σ|m| then averaged over the test's runs,
+  // as error_without is. The score test takes these patterns as its baseline's; the
+  // `unexplained` rule must too, or a misfit every cut shares (a cut narrows a strip more,
+  // whatever its sign) reads as one no effect explains (docs/discovery.md §1). Bounded, they do
+  // not take a coupling unlike the paper's (test FitWithEffects.TheLateralErrorBeyondTheKnownPatterns…).
+  void set_errors_beyond_known(const Observations& o, const std::vector<Eigen::VectorXd>& at_neutral,
+                               const Eigen::MatrixXd& known, FitEffect* result) const {
+    if (known.cols() == 0 || at_neutral.size() != o.predictors.size()) return;
+    for (const auto& [test, segments] : lateral_segments(o))
+      for (FitEffectTest& t : result->tests)
+        if (t.test == test) t.error_beyond_known = error_beyond_patterns(o, at_neutral, known, segments);
+  }
+
+  // A lateral run's rows among the predictors' (`row`, `n`) and its predictor's index.
+  struct LateralSegment {
+    Eigen::Index row, n;
+    size_t run;
+  };
+  // The lateral runs' segments by test (o.tests' labels).
+  std::map<std::string, std::vector<LateralSegment>> lateral_segments(const Observations& o) const {
+    std::map<std::string, std::vector<LateralSegment>> by_test;
+    Eigen::Index row = lateral_layout(o.predictors).second;
+    for (size_t i = runs_.size(); i < runs_.size() + lateral_runs_.size(); ++i) {
+      const Eigen::Index n = o.predictors[i]->measured().size();
+      by_test[o.tests[i]].push_back({row, n, i});
+      row += n;
+    }
+    return by_test;
+  }
+
+  // One lateral test's error beyond its patterns (set_errors_beyond_known): its pair of columns
+  // of `known` (mesh, cut: the first column not zero on its rows, rounded down to the pair's
+  // first), in strain units, fitted to m − p with bounded amplitudes; NaN without columns.
+  static double error_beyond_patterns(const Observations& o, const std::vector<Eigen::VectorXd>& at_neutral,
+                                      const Eigen::MatrixXd& known, const std::vector<LateralSegment>& segments) {
+    const Eigen::Index first = segments.front().row, n = segments.front().n;
+    Eigen::Index pair = 0;
+    while (pair < known.cols() && known.col(pair).segment(first, n).isZero(0)) ++pair;
+    if (pair >= known.cols()) return std::numeric_limits<double>::quiet_NaN();
+    pair -= pair % 2;
+    Eigen::Index rows = 0;
+    for (const LateralSegment& g : segments) rows += g.n;
+    Eigen::MatrixXd a(rows, 2);
+    Eigen::VectorXd e(rows);
+    for (Eigen::Index at = 0; const LateralSegment& g : segments) {
+      const Eigen::VectorXd& m = o.predictors[g.run]->measured();
+      a.middleRows(at, g.n) = m.asDiagonal() * known.block(g.row, pair, g.n, 2);
+      e.segment(at, g.n) = m - at_neutral[g.run];  // what the prediction lacks: m ≈ p + a c
+      at += g.n;
+    }
+    const double cut_reach = std::pow(kCutSpreadBoundDeg / kCutProbeDeg, 2);
+    const Eigen::VectorXd left = e - a * box_least_squares(a, e, Eigen::Vector2d(kMeshPatternReach, cut_reach));
+    double sum = 0;
+    for (Eigen::Index at = 0; const LateralSegment& g : segments) {
+      sum += left.segment(at, g.n).cwiseAbs().sum() / o.predictors[g.run]->measured().cwiseAbs().sum();
+      at += g.n;
+    }
+    return sum / static_cast<double>(segments.size());
   }
 
   // What the lateral strains carry beside each run's noise, on the predictors' rows (none

@@ -564,6 +564,25 @@ TEST(DiscoverJudge, AMisfitWithinTheRepeatsNoiseIsNotUnexplained) {
   EXPECT_EQ(unexplained_misfit(r, 2.0, 0.05, &note).rfind("unexplained at weft", 0), 0u);
 }
 
+// A lateral strain is judged beyond the mesh's and the cuts' patterns (before_beyond_known): the
+// 0118c33 table's poisson null twin 1 (10 %, 1° cuts) read `unexplained at warp lateral strain`
+// from what every cut shares. Its error there beside its floor, with the patterns out and not.
+TEST(DiscoverJudge, ALateralMisfitTheCutsPatternTakesIsNotUnexplained) {
+  DiscoverResult r;
+  r.gap = {{"warp", 0.004, 0.004, 0.004}, {"warp lateral strain", 0.045, 0.045, 0.012}};
+  r.gap[1].repeat_floor = 0.01;  // 4.5× its own repeats' scatter
+  std::string note;
+  EXPECT_EQ(unexplained_misfit(r, 2.0, 0.05, &note), "unexplained at warp lateral strain");
+  r.gap[1].before_beyond_known = 0.015;  // 1.5× once the patterns are out
+  note.clear();
+  EXPECT_EQ(unexplained_misfit(r, 2.0, 0.05, &note), "");
+  EXPECT_NE(note.find("warp lateral strain is 4.5× its floor, 1.5× with the mesh's and a 1° cut's patterns fitted out"),
+            std::string::npos)
+      << note;
+  r.gap[1].before_beyond_known = 0.03;  // what the patterns cannot reach stays a misfit
+  EXPECT_EQ(unexplained_misfit(r, 2.0, 0.05, &note), "unexplained at warp lateral strain");
+}
+
 // Where a misfit is: the rows beyond their noise. A 3 % load drop past 8 mm on the stiff curve,
 // fitted by a curve that compromises (1 % low everywhere, 2 % high past 8 mm): relative to twice
 // the floor every row misses, beyond the load cell's noise only the dropped ones (3.7–4 sd there,
