@@ -61,17 +61,21 @@ constexpr double kCutProbeDeg = 1.0;
 // How far the lateral strains' known patterns can reach in the `unexplained` rule's error
 // (set_errors_beyond_known). The mesh's: the continuum's error is the sum of every finer
 // level's step, at an order p ≥ 1 at most 1/(1 − 2^−p) ≤ 2 times the one step measured (and
-// of its sign: data are finer than the fit). The cuts': their shared narrowing grows as the
-// square of the offset (lateral_known_directions), so a spread of kCutSpreadBoundDeg reaches
-// (kCutSpreadBoundDeg / kCutProbeDeg)² times the 1° pattern. 2° RMS is twice the generator's
+// of its sign: data are finer than the fit). The cuts': on a warp or weft strip (a symmetry
+// axis) their shared narrowing grows as the square of the offset (lateral_known_directions),
+// so a spread of kCutSpreadBoundDeg reaches [0, (kCutSpreadBoundDeg / kCutProbeDeg)²] times the
+// 1° pattern; off the axes (bias) a cut moves the contraction to first order, either way, and
+// the specimens' mean offset reaches ±kCutSpreadBoundDeg / kCutProbeDeg. 2° RMS is twice the generator's
 // cuts (papers/hidden_effects) and about what a 50 mm strip cut by hand against a yarn
 // drifts (1.7 mm over 50 mm); a larger spread is left to misalignment's candidate.
 constexpr double kMeshPatternReach = 2.0;
 constexpr double kCutSpreadBoundDeg = 2.0;
 
-// argmin over 0 ≤ c ≤ upper of ‖e − a c‖ for a few columns: each coefficient free, at 0 or at
-// its upper bound, the best feasible of the 3^n choices (a convex problem's minimum is one).
-Eigen::VectorXd box_least_squares(const Eigen::MatrixXd& a, const Eigen::VectorXd& e, const Eigen::VectorXd& upper) {
+// argmin over lower ≤ c ≤ upper (lower ≤ 0 ≤ upper) of ‖e − a c‖ for a few columns: each
+// coefficient free, at its lower or at its upper bound, the best feasible of the 3^n choices (a
+// convex problem's minimum is one).
+Eigen::VectorXd box_least_squares(const Eigen::MatrixXd& a, const Eigen::VectorXd& e, const Eigen::VectorXd& lower,
+                                  const Eigen::VectorXd& upper) {
   const Eigen::Index n = a.cols();
   Eigen::VectorXd best = Eigen::VectorXd::Zero(n);
   double best_residual = e.squaredNorm();
@@ -82,7 +86,7 @@ Eigen::VectorXd box_least_squares(const Eigen::MatrixXd& a, const Eigen::VectorX
     std::vector<Eigen::Index> free;
     for (Eigen::Index i = 0, k = code; i < n; ++i, k /= 3) {
       if (k % 3 == 0) free.push_back(i);
-      if (k % 3 == 2) c[i] = upper[i];
+      c[i] = k % 3 == 1 ? lower[i] : k % 3 == 2 ? upper[i] : 0.0;
     }
     if (!free.empty()) {
       Eigen::MatrixXd columns(a.rows(), static_cast<Eigen::Index>(free.size()));
@@ -90,7 +94,7 @@ Eigen::VectorXd box_least_squares(const Eigen::MatrixXd& a, const Eigen::VectorX
       const Eigen::VectorXd x = columns.colPivHouseholderQr().solve(e - a * c);
       for (size_t j = 0; j < free.size(); ++j) c[free[j]] = x[static_cast<Eigen::Index>(j)];
     }
-    if ((c.array() < 0).any() || (c.array() > upper.array()).any()) continue;
+    if ((c.array() < lower.array()).any() || (c.array() > upper.array()).any()) continue;
     const double residual = (e - a * c).squaredNorm();
     if (residual < best_residual) {
       best_residual = residual;
@@ -434,8 +438,8 @@ class EffectFit final : public FitStage {
   // One lateral test's error beyond its patterns (set_errors_beyond_known): its pair of columns
   // of `known` (mesh, cut: the first column not zero on its rows, rounded down to the pair's
   // first), in strain units, fitted to m − p with bounded amplitudes; NaN without columns.
-  static double error_beyond_patterns(const Observations& o, const std::vector<Eigen::VectorXd>& at_neutral,
-                                      const Eigen::MatrixXd& known, const std::vector<LateralSegment>& segments) {
+  double error_beyond_patterns(const Observations& o, const std::vector<Eigen::VectorXd>& at_neutral,
+                               const Eigen::MatrixXd& known, const std::vector<LateralSegment>& segments) const {
     const Eigen::Index first = segments.front().row, n = segments.front().n;
     Eigen::Index pair = 0;
     while (pair < known.cols() && known.col(pair).segment(first, n).isZero(0)) ++pair;
@@ -451,8 +455,11 @@ class EffectFit final : public FitStage {
       e.segment(at, g.n) = m - at_neutral[g.run];  // what the prediction lacks: m ≈ p + a c
       at += g.n;
     }
-    const double cut_reach = std::pow(kCutSpreadBoundDeg / kCutProbeDeg, 2);
-    const Eigen::VectorXd left = e - a * box_least_squares(a, e, Eigen::Vector2d(kMeshPatternReach, cut_reach));
+    const double reach = kCutSpreadBoundDeg / kCutProbeDeg;
+    const double angle_deg = lateral_runs_.at(segments.front().run - runs_.size()).test->angle_deg;
+    const bool on_axis = std::abs(std::remainder(angle_deg, 90.0)) < 1e-9;  // warp or weft
+    const Eigen::Vector2d lower(0.0, on_axis ? 0.0 : -reach), upper(kMeshPatternReach, on_axis ? reach * reach : reach);
+    const Eigen::VectorXd left = e - a * box_least_squares(a, e, lower, upper);
     double sum = 0;
     for (Eigen::Index at = 0; const LateralSegment& g : segments) {
       sum += left.segment(at, g.n).cwiseAbs().sum() / o.predictors[g.run]->measured().cwiseAbs().sum();
