@@ -112,6 +112,7 @@ struct DiscoverWork {
   std::vector<std::pair<std::string, double>>* step_times = nullptr;  ///< DiscoverResult::step_times
   const MaterialParameters* baseline = nullptr;  ///< the baseline's parameters (a fold's refit starts there)
   bool refit_fold_baselines = true;              ///< DiscoverOptions::fold_baselines == "refit"
+  std::optional<RepeatNoise> noise = {};         ///< the load cell's noise the repeats show (repeat_noise), fitted once
 
   /// A scratch file named after a step (a '/' in it, as in "mm/min", made a '-').
   fs::path file(std::string name) const {
@@ -210,10 +211,9 @@ std::vector<RunReadings> fit_curve_readings(const FitReport& report, const std::
 // error): the unexplained rule's floor before the gap's rows exist.
 std::map<std::string, double> baseline_noise_floors(const DiscoverWork& work, const FitReport& baseline) {
   std::map<std::string, double> out;
-  const std::optional<RepeatNoise> noise = repeat_noise(work.dataset);
-  if (!noise) return out;
+  if (!work.noise) return out;
   for (const FitCurve& c : baseline.fit)
-    if (!out.count(c.label)) out[c.label] = noise_floor_test(*noise, fit_curve_readings(baseline, c.label), 0.0).floor;
+    if (!out.count(c.label)) out[c.label] = noise_floor_test(*work.noise, fit_curve_readings(baseline, c.label), 0.0).floor;
   return out;
 }
 
@@ -554,7 +554,7 @@ std::vector<RunReadings> gap_readings(const DiscoverResult& result, const std::s
 // resolution error as the draws' offset: measure it first (add_resolution_errors).
 void add_noise_floors(const DiscoverWork& work, DiscoverResult* result) {
   const auto t = Clock::now();
-  result->noise = repeat_noise(work.dataset);
+  result->noise = work.noise;
   if (!result->noise) return;
   for (DiscoverGap& g : result->gap) {
     const bool force_test = std::any_of(work.dataset.tensile.begin(), work.dataset.tensile.end(),
@@ -884,6 +884,7 @@ DiscoverResult run_discover(const Dataset& dataset, const Options& config, const
   baseline_second_pass(work, &result);
   work.baseline = &result.baseline.parameters;
   work.refit_fold_baselines = options.fold_baselines == "refit";
+  work.noise = repeat_noise(dataset);
   work.timed("baseline", t_baseline);
   work.level = std::min(options.screening_level, result.baseline.finest_level);
   result.screening_resolution = fmt::format("level {}, {} cells across", work.level,
