@@ -392,7 +392,18 @@ void baseline_second_pass(const DiscoverWork& work, DiscoverResult* result) {
   for (const ComponentChoice& stage : work.fit.get_component_list("protocol"))
     if (stage.name != kInitialGuessStage) protocol.push_back(stage);
   config.set("protocol", protocol);
-  FitReport second = run_fit(work.dataset, config, work.registry, prefixed(work.progress, "baseline, second pass"));
+  FitReport second;
+  try {
+    second = run_fit(work.dataset, config, work.registry, prefixed(work.progress, "baseline, second pass"));
+  } catch (const std::exception& e) {
+    // Only a refinement of a baseline that stands: its failure keeps the first pass (a yarn-damage
+    // dataset's second pass raised warp to degree 3, whose ladder refit could not simulate its
+    // start, and the whole discover failed; papers/discovery/README.md, "Session 38").
+    result->notes.push_back(fmt::format("the baseline's first pass left {}: a second pass from its parameters failed ({}), "
+                                        "so the first pass is kept", above, e.what()));
+    if (work.progress) work.progress(0, std::string("baseline, second pass: failed, the first pass kept: ") + e.what());
+    return;
+  }
   const double before = fit_runs_error(result->baseline).error_with, after = fit_runs_error(second).error_with;
   const bool better = after < before;
   result->notes.push_back(fmt::format("the baseline's first pass left {}: a second pass from its parameters took the "

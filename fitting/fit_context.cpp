@@ -322,15 +322,15 @@ FitContext::CurveFit FitContext::fit_curve(const CurveStage& stage, int level, M
   const OptimizerResult r = optimizer->minimize(objective, map.initial_x());
   CurveFit out;
   if (!std::isfinite(r.summary.final_value)) {
-    note(fmt::format("{} {} degree {}: optimiser failed ({}): {}", stage.label, resolution, degree,
-                     to_string(r.status), r.message));
+    out.failure = fmt::format("optimiser failed ({}): {}", to_string(r.status), r.message);
+    note(fmt::format("{} {} degree {}: {}", stage.label, resolution, degree, out.failure));
     return out;
   }
   // The predictors keep their last trial's states; a final point that cannot be re-evaluated
   // from there is the optimiser's failure (its error would be NaN), not a result.
   if (!std::isfinite(objective.evaluate(r.x, nullptr))) {
-    note(fmt::format("{} {} degree {}: the optimiser's final point could not be re-evaluated: {}", stage.label,
-                     resolution, degree, objective.last_failure()));
+    out.failure = "the optimiser's final point could not be re-evaluated: " + objective.last_failure();
+    note(fmt::format("{} {} degree {}: {}", stage.label, resolution, degree, out.failure));
     return out;
   }
   *p = map.parameters(r.x);

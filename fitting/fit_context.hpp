@@ -185,6 +185,7 @@ class FitContext {
     double error = 0;
     bool ok = false;
     std::vector<double> scales;  ///< the runs' profiled specimen scales (runs_for order; all 1 without)
+    std::string failure;         ///< why, when not ok (also in the notes)
   };
   /// Where a curve fit starts: a stage's first fit, a degree raise (§5.4: a converged curve plus
   /// a new term, next to a line of stationary points), or a ladder refit (a converged solution

@@ -85,7 +85,9 @@ class ResolutionLadder final : public FitStage {
         const auto t = Clock::now();
         MaterialParameters refined = context.params;
         const FitContext::CurveFit fit = context.fit_curve(*stage, level, &refined, FitContext::CurveStart::refine);
-        if (!fit.ok) throw std::runtime_error("stage " + stage->label + ": fit failed at level " + std::to_string(level));
+        if (!fit.ok)
+          throw std::runtime_error("stage " + stage->label + ": fit failed at level " + std::to_string(level) + ": " +
+                                   fit.failure);
         context.params = refined;
         context.keep_scales(context.runs_for(stage->angle_deg), fit.scales);
         out.timing_s.emplace_back(stage->label + " (level " + std::to_string(level) + ")", seconds_since(t));
