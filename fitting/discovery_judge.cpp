@@ -402,6 +402,11 @@ bool rejected_by_excess(DiscoverCandidate& loser, const DiscoverCandidate& winne
                                    excess_left(winner.effect->tests, floors), min_excess_shrink, "alone", "explains more");
 }
 
+// Whether two tied effects were both checked on the same separating folds (separate_tie).
+bool checked_on_the_same_data(const DiscoverCandidate& a, const DiscoverCandidate& b) {
+  return a.separating.evaluated && b.separating.evaluated && a.separating.held == b.separating.held;
+}
+
 // The same on the held-out data that separates two tied effects (DiscoverCandidate::separating:
 // both fitted on one speed and judged at the other, run_discover's separate_tie): the one that
 // leaves min_excess_shrink times the other's excess over the held-out tests' floors predicts
@@ -410,8 +415,8 @@ bool rejected_by_excess(DiscoverCandidate& loser, const DiscoverCandidate& winne
 // not checked there.
 bool rejected_held_out(DiscoverCandidate& loser, const DiscoverCandidate& winner, const std::map<std::string, double>& floors,
                        double min_excess_shrink) {
+  if (!checked_on_the_same_data(loser, winner)) return false;
   const DiscoverHeldOut &mine = loser.separating, &theirs = winner.separating;
-  if (!mine.evaluated || !theirs.evaluated || mine.held != theirs.held) return false;
   return rejected_for_leaving_more(loser, winner, excess_left(mine.tests, floors), excess_left(theirs.tests, floors),
                                    min_excess_shrink, "on the held-out " + mine.held + " (fitted on the others)",
                                    "predicts more");
@@ -424,7 +429,7 @@ void tie_or_reject(DiscoverCandidate& a, DiscoverCandidate& b, const std::map<st
   if (rejected_by_excess(b, a, floors, min_excess_shrink) || rejected_by_excess(a, b, floors, min_excess_shrink) ||
       rejected_held_out(b, a, floors, min_excess_shrink) || rejected_held_out(a, b, floors, min_excess_shrink))
     return;
-  if (a.separating.evaluated && b.separating.evaluated && a.separating.held == b.separating.held) {
+  if (checked_on_the_same_data(a, b)) {
     const std::string apart = fmt::format(
         "; on the held-out {} (each fitted on the others) {} leaves {:.2f} % over the floor and {} {:.2f} %: not {:g}× apart",
         a.separating.held, a.name, 100 * excess_left(a.separating.tests, floors), b.name,

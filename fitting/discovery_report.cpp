@@ -73,8 +73,8 @@ json candidate_json(const DiscoverCandidate& c) {
   j["tests"] = json::array();  // what the judge weighed, test by test (excess_over_floors)
   for (const FitEffectTest& t : e.tests)
     j["tests"].push_back({{"test", t.test}, {"runs", t.runs}, {"error_without", t.error_without},
-                          {"error_with", t.error_with}, {"noise_floor", number(t.noise_floor)}, {"error_beyond_known", number(t.error_beyond_known)},
-                          {"score_share", number(t.score_share)}});
+                          {"error_with", t.error_with}, {"noise_floor", number(t.noise_floor)},
+                          {"error_beyond_known", number(t.error_beyond_known)}, {"score_share", number(t.score_share)}});
   if (const auto held = held_out_json(c.held_out)) j["held_out"] = *held;
   if (const auto held = held_out_json(c.separating)) j["separating_check"] = *held;
   j["parameters"] = json::array();
